@@ -1,0 +1,192 @@
+// The sheet of paper as structure-of-arrays. Plain data only: systems/ computes, engine/ schedules.
+//
+// Invariants kept by every system that changes topology (meshing, remeshing), checked by
+// systems/topology.hpp `check_mesh_invariants`:
+//   - every array of Vertices has Vertices::size() entries, every array of Triangles has Triangles::size();
+//   - triangle corners are valid vertex ids, counter-clockwise in the pattern (rest), positive rest area;
+//   - each undirected edge is shared by at most two triangles; every vertex's triangle fan is connected
+//     (no bow-tie vertex: a tear that touches a vertex duplicates it);
+//   - Topology is derived from Triangles by `build_topology` and is rebuilt after each topology change
+//     (its `version` equals Sheet::topology_version).
+#pragma once
+
+#include <Eigen/Core>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace pt {
+
+using Vec2 = Eigen::Vector2d;
+using Vec3 = Eigen::Vector3d;
+using Mat2 = Eigen::Matrix2d;
+using Tri = std::array<int32_t, 3>;
+
+// Office paper, 80 g/m² (DESIGN §4). The tearing constants are calibrated so a sheet tears when the
+// pulling force is about 0.5–1 N (DESIGN §5.2): Er = (|F_l|+|F_r|) cos(φ/2) / e, Ef = c · T · d.
+struct Material {
+  double thickness = 1e-4;     // e, m
+  double density = 800;        // kg/m³ (800 · 1e-4 = 80 g/m²)
+  double young = 4e9;          // Pa
+  double poisson = 0.3;
+  double bending_scale = 1;    // multiplies E e³ / (12 (1 − ν²))
+  double damping = 2.0;        // 1/s, mass-proportional velocity damping
+  double tip_damage = 0.5;     // D of eq. 3, in [0,1]
+  uint64_t fiber_seed = 1;     // seed of T_fiber
+  double fiber_scale = 0.004;  // m, feature size of the coarsest octave of T_fiber
+  double fracture_c = 1.2e4;   // c of eq. 3, J/m² (Ef = c T d)
+  double speed = 2e-7;         // k of p_next = p + k Er t, m per (J/m²)
+  double max_step = 0.01;      // cap on one propagation step, m
+};
+
+enum VertexFlag : uint8_t {
+  kBoundary = 1 << 0,   // on the sheet's boundary (outline or a tear lip)
+  kFinger = 1 << 1,     // a finger holds it
+  kTip = 1 << 2,        // the tip of an active tear
+  kJunction = 1 << 3,   // junction point of the geometric layer (DESIGN §5.1)
+  kNew = 1 << 4,        // created by the last remesh
+  kInward = 1 << 5,     // boundary vertex with interior pattern angle > π
+  kSingular = 1 << 6,   // interior singular point (bending concentrates)
+};
+
+// Per vertex. Hot (touched by every substep): x, v, force. Warm: rest, mass, flags, tear.
+struct Vertices {
+  std::vector<Vec3> x;        // 3D position, m
+  std::vector<Vec3> v;        // velocity, m/s
+  std::vector<Vec3> force;    // total internal force (membrane + bending) on the vertex, N
+  std::vector<Vec2> rest;     // 2D pattern position (u, v), m
+  std::vector<double> mass;   // lumped mass, kg (a third of each incident triangle's mass)
+  std::vector<uint8_t> flags; // VertexFlag bits
+  std::vector<int32_t> tear;  // id of the tear whose lip holds this vertex, −1 if none
+
+  int32_t size() const { return static_cast<int32_t>(x.size()); }
+  void resize(int32_t n) {
+    x.resize(n, Vec3::Zero());
+    v.resize(n, Vec3::Zero());
+    force.resize(n, Vec3::Zero());
+    rest.resize(n, Vec2::Zero());
+    mass.resize(n, 0.0);
+    flags.resize(n, 0);
+    tear.resize(n, -1);
+  }
+};
+
+// Per triangle. `corner_force[t][i]` is the membrane force triangle t applies to its corner i
+// (written by the force system, read by clustering, DESIGN §5.3).
+struct Triangles {
+  std::vector<Tri> tri;                          // vertex ids, counter-clockwise in the pattern
+  std::vector<Mat2> rest_inv;                    // inverse of [r1 − r0, r2 − r0] (pattern)
+  std::vector<double> rest_area;                 // pattern area, m²
+  std::vector<std::array<Vec3, 3>> corner_force; // membrane force on each corner, N
+  std::vector<int32_t> region;                   // region id (regions system), −1 before it runs
+  std::vector<int32_t> piece;                    // connected piece id (topology)
+  std::vector<int32_t> side;                     // texture side label (carving), 0 = untouched
+
+  int32_t size() const { return static_cast<int32_t>(tri.size()); }
+  void resize(int32_t n) {
+    tri.resize(n, Tri{0, 0, 0});
+    rest_inv.resize(n, Mat2::Identity());
+    rest_area.resize(n, 0.0);
+    corner_force.resize(n, {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()});
+    region.resize(n, -1);
+    piece.resize(n, 0);
+    side.resize(n, 0);
+  }
+};
+
+// An interior edge (v0, v1) with its two opposite vertices: v2 on the triangle where v0→v1 is
+// counter-clockwise, v3 on the other. Bending acts on hinges.
+struct Hinge {
+  std::array<int32_t, 4> v;
+};
+
+// Derived from Triangles by build_topology (systems/topology.hpp).
+struct Topology {
+  uint64_t version = ~uint64_t{0};
+  std::vector<int32_t> vt_offset;                // CSR: triangles of vertex i are
+  std::vector<int32_t> vt_tri;                   //   vt_tri[vt_offset[i] .. vt_offset[i+1]), ascending
+  std::vector<std::array<int32_t, 3>> neighbor;  // neighbor[t][i]: triangle across edge (tri[i], tri[i+1]), −1 on the boundary
+  std::vector<Hinge> hinges;                     // interior edges, sorted by (v0, v1)
+  std::vector<int32_t> boundary_next;            // along the boundary, interior on the left; −1 if interior vertex
+  std::vector<int32_t> boundary_prev;
+  int32_t piece_count = 0;
+};
+
+enum class RegionKind : uint8_t { Flat = 0, CurvedPositive = 1, CurvedNegative = 2 };
+
+struct Region {
+  RegionKind kind = RegionKind::Flat;
+  int32_t triangle_count = 0;
+  int32_t apex = -1;  // interior singular vertex (cone apex) if any
+};
+
+enum class StartKind : uint8_t { Finger = 0, Junction = 1, Inward = 2 };
+
+// A tear: stable id, never removed. `tips` is the coarse path in the pattern (the first is the start
+// point), `detail` the fine path of the carving system (DESIGN §5.6).
+struct Tear {
+  int32_t id = -1;
+  int32_t parent = -1;
+  StartKind start_kind = StartKind::Inward;
+  int32_t start_frame = 0;
+  Vec2 start_uv = Vec2::Zero();
+  std::vector<Vec2> tips;
+  std::vector<Vec2> detail;
+  int32_t carved_segments = 0;  // segments of `tips` already carved into `detail`
+  bool reached_boundary = false;
+};
+
+// The active tip of a tear: the vertex where it continues. Removed when the tear reaches the boundary.
+struct Tip {
+  int32_t vertex = -1;
+  int32_t tear = -1;
+  Vec2 direction = Vec2::Zero();  // direction of the last segment in the pattern (unit), zero if none
+};
+
+struct FingerKey {
+  double t = 0;                 // s
+  Vec3 position = Vec3::Zero(); // world, m
+};
+
+struct HandKey {
+  double t = 0;
+  Vec3 translate = Vec3::Zero();
+  double rotate_deg = 0;
+  Vec3 axis = Vec3(0, 0, 1);
+};
+
+struct Finger {
+  std::string name;
+  Vec2 uv = Vec2::Zero();        // where it was put, pattern
+  int32_t vertex = -1;           // the vertex it holds (−1 when released)
+  std::vector<FingerKey> keys;
+  int32_t hand = -1;
+  Vec3 start = Vec3::Zero();     // world position when put (z = 0 on the flat sheet)
+  Vec3 target = Vec3::Zero();    // prescribed position now
+  Vec3 reaction = Vec3::Zero();  // force the finger applies to the sheet now, N
+  double max_force = 0;          // max |reaction| so far, N
+};
+
+struct Hand {
+  std::string name;
+  std::vector<int32_t> fingers;
+  std::vector<HandKey> keys;
+  Vec3 centroid = Vec3::Zero();  // of its fingers' initial positions
+};
+
+struct Sheet {
+  Material material;
+  Vertices verts;
+  Triangles tris;
+  Topology topo;
+  std::vector<Region> regions;
+  std::vector<Tear> tears;   // index == id
+  std::vector<Tip> tips;     // active tips
+  std::vector<Finger> fingers;
+  std::vector<Hand> hands;
+  uint64_t topology_version = 0;  // bumped by every topology change
+};
+
+}  // namespace pt

@@ -1,0 +1,71 @@
+// Scenario files (DESIGN §6, version 1): strict loading. Unknown keys, wrong types, wrong array lengths,
+// non-finite or non-positive physical constants, degenerate outlines and fingers outside the sheet are
+// InputError with the file and the JSON path of the problem.
+#pragma once
+
+#include "components/sheet.hpp"
+
+#include <array>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace pt {
+
+// One clear line: "<file>: <json path>: <problem>" (or "<file>: <geometric problem>").
+struct InputError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct DetailSettings {
+  std::array<int32_t, 2> texture{0, 0};  // [width, height] px; 0,0: ~0.1 mm per pixel over the bounding box
+  double sigma = 1e-4;                    // m
+  double omega = 0.5;
+};
+
+struct SimSettings {
+  double fps = 30;
+  int32_t substeps = 10;
+  int32_t frames = 90;
+  Vec3 gravity = Vec3(0, 0, -9.81);
+  int32_t iterations = 2;  // projective dynamics local/global iterations per substep
+};
+
+struct FingerSpec {
+  std::string name;
+  Vec2 at = Vec2::Zero();
+  std::vector<FingerKey> keys;
+};
+
+struct HandSpec {
+  std::string name;
+  std::vector<std::string> fingers;
+  std::vector<HandKey> keys;
+};
+
+struct Scenario {
+  std::string name;
+  std::string path;             // file it came from ("" when built in code)
+  std::vector<Vec2> outline;    // counter-clockwise, meters (from "outline" or "preset")
+  std::string preset;           // "" when an outline was given
+  int32_t triangles = 400;
+  uint64_t mesh_seed = 0;
+  double mesh_rotation_deg = 0;
+  Material material;
+  DetailSettings detail;
+  SimSettings sim;
+  std::vector<FingerSpec> fingers;
+  std::vector<HandSpec> hands;
+};
+
+// Parse and validate. Throws InputError.
+Scenario load_scenario(const std::string& path);
+Scenario parse_scenario(const std::string& json_text, const std::string& path_for_messages);
+
+// Checks that do not depend on JSON (outline simple and CCW, fingers inside, constants positive and
+// finite, sizes sane). Throws InputError naming `s.path`. Called by parse_scenario; call it on scenarios
+// built in code.
+void validate_scenario(const Scenario& s);
+
+}  // namespace pt

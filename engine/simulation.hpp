@@ -1,0 +1,103 @@
+// One simulated sheet: built from a scenario, advanced frame by frame by a tbb::flow::graph built once
+// (DESIGN §3), inside a task arena of `threads` workers.
+#pragma once
+
+#include "components/sheet.hpp"
+#include "engine/scenario.hpp"
+#include "systems/fiber_field.hpp"
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace pt {
+
+// Per-system wall time of one frame, milliseconds (Box2D's b2Profile). Filled where each system runs.
+struct FrameProfile {
+  double fingers = 0, forces = 0, integrate = 0, regions = 0, candidates = 0, clustering = 0,
+         propagation = 0, remeshing = 0, relaxation = 0, carving = 0, frame = 0;
+  // The paper's Table 1 groups.
+  double physics() const { return forces + integrate + relaxation; }
+  double geometry() const { return regions; }
+  double tearing() const { return candidates + clustering + propagation + remeshing; }
+};
+
+struct TimingStat {
+  double sum = 0, max = 0;
+  int64_t count = 0;
+  void add(double ms) {
+    sum += ms;
+    max = ms > max ? ms : max;
+    ++count;
+  }
+  double avg() const { return count ? sum / static_cast<double>(count) : 0.0; }
+};
+
+// Names of the systems in FrameProfile order, and of the Table 1 groups.
+inline constexpr std::array<const char*, 11> kSystemNames = {
+    "fingers", "forces", "integrate", "regions", "candidates", "clustering",
+    "propagation", "remeshing", "relaxation", "carving", "frame"};
+
+struct TimingReport {
+  std::array<TimingStat, 11> systems;  // kSystemNames order
+  TimingStat physics, geometry, tearing, carving, frame;
+  void add(const FrameProfile& p);
+};
+
+// Per-frame counts kept for result.json (short summaries, not dumps).
+struct FrameStats {
+  int32_t triangles = 0;
+  int32_t regions = 0;
+  int32_t junctions = 0;
+  int32_t candidates = 0;
+};
+
+struct EngineOptions {
+  int32_t threads = 2;           // task arena concurrency
+  int32_t parallel_grain = 512;  // triangles per task; smaller sheets run their kernels serially
+};
+
+struct TearEvent {
+  enum Kind { TearStarted, TearExtended, PieceSeparated } kind;
+  int32_t tear = -1;
+  int32_t frame = 0;
+};
+
+class Simulation {
+ public:
+  // Builds the sheet (meshing, fingers, hands) and the frame graph. Throws InputError / GeometryError.
+  Simulation(const Scenario& scenario, const EngineOptions& options = {});
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  void step();              // one frame
+  int32_t frame() const;    // frames done
+  double time() const;      // s
+
+  const Sheet& sheet() const;
+  Sheet& mutable_sheet();   // for tools that move fingers by hand; call notify_topology_changed() after edits
+  const Scenario& scenario() const;
+  const FiberField& fiber() const;
+  const FrameProfile& last_profile() const;
+  const TimingReport& timings() const;
+  const std::vector<FrameStats>& frame_stats() const;
+  const std::vector<TearEvent>& events() const;  // all events so far
+  int32_t threads() const;
+
+  // Hex digest (FNV-1a 64 over the bit patterns of x, v, rest, triangles, tears) of the current state.
+  std::string state_hash() const;
+
+  void notify_topology_changed();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// FNV-1a 64 of a state, as text.
+std::string hash_sheet(const Sheet& sheet);
+
+}  // namespace pt

@@ -1,0 +1,22 @@
+// Potential tearing points (paper §4.1, DESIGN §5.2): boundary vertices that are finger vertices,
+// junction points, or have an inward angle in the pattern (every tear tip is one). Each gets its
+// fracture energy Ef = c · T_fiber(u, v) · d_p (eq. 3), d_p = D at a tear tip, 1 elsewhere.
+#pragma once
+
+#include "components/sheet.hpp"
+#include "systems/fiber_field.hpp"
+
+namespace pt {
+
+struct Candidate {
+  int32_t vertex = -1;
+  StartKind kind = StartKind::Inward;  // why it is a candidate (finger > junction > inward when several)
+  int32_t tear = -1;                   // tear whose active tip it is, −1 otherwise
+  double fracture_energy = 0;          // Ef, J/m²
+};
+
+// Candidates in a deterministic order: active tips first (by tear id), then the others by vertex id.
+void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
+                     const Material& material, const FiberField& fiber, std::vector<Candidate>& out);
+
+}  // namespace pt

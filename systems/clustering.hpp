@@ -1,0 +1,31 @@
+// Clustering the forces at a potential tearing point (paper §5.1 eq. 4, DESIGN §5.3) and mapping the
+// two clusters to the pattern (eq. 5, DESIGN §5.4).
+#pragma once
+
+#include "components/sheet.hpp"
+
+namespace pt {
+
+struct ClusterParams {
+  double epsilon = 1e-6;   // stop when ‖b_i − b_{i−1}‖ < ε
+  int32_t max_iterations = 20;
+};
+
+struct ForceClusters {
+  Vec3 left = Vec3::Zero(), right = Vec3::Zero();            // F_left, F_right (3D, N)
+  Vec2 left_pattern = Vec2::Zero(), right_pattern = Vec2::Zero();  // F̄_left, F̄_right (pattern)
+  Vec3 bisector = Vec3::Zero();                              // final b
+  Vec3 normal = Vec3::Zero();                                // n at p
+  int32_t left_count = 0, right_count = 0;
+  int32_t iterations = 0;
+};
+
+// Forces f_k = corner_force of each triangle around boundary vertex p on p. Needs the boundary
+// neighbours of p (topology) for b0. Returns false when p is not a boundary vertex.
+bool cluster_tip_forces(const Vertices& verts, const Triangles& tris, const Topology& topo, int32_t p,
+                        const ClusterParams& params, ForceClusters& out);
+
+// F⁺ = (FᵀF)⁻¹Fᵀ (2x3) of a 3x2 deformation gradient; zero for a degenerate F.
+Eigen::Matrix<double, 2, 3> deformation_pseudo_inverse(const Eigen::Matrix<double, 3, 2>& F);
+
+}  // namespace pt

@@ -1,0 +1,43 @@
+// Membrane forces: constant-strain triangles with a corotated linear energy (DESIGN §4).
+// Per triangle, F = [x1−x0, x2−x0] · rest_inv (3x2 deformation gradient), R its polar rotation (3x2,
+// orthonormal columns), energy  W = e · A · ( μ ‖F − R‖² + λ/2 · tr(RᵀF − I)² )  with plane-stress λ.
+// The force on each corner is −∂W/∂x_corner; each triangle writes its own three corner forces
+// (Triangles::corner_force), read again by clustering (paper §5.1).
+#pragma once
+
+#include "components/sheet.hpp"
+
+namespace pt {
+
+struct MembraneParams {
+  double mu = 0;       // Lamé μ, Pa
+  double lambda = 0;   // plane-stress λ, Pa
+  double thickness = 0;
+};
+MembraneParams membrane_params(const Material& m);
+
+// Deformation gradient (3x2) of triangle t.
+Eigen::Matrix<double, 3, 2> deformation_gradient(const std::vector<Vec3>& x, const Tri& tri, const Mat2& rest_inv);
+
+// Polar rotation R (3x2, orthonormal columns) of a 3x2 F with full rank; for a degenerate F a rotation
+// that is still well defined (continuous choice, no NaN).
+Eigen::Matrix<double, 3, 2> polar_rotation(const Eigen::Matrix<double, 3, 2>& F);
+
+// Triangles [begin, end): corner forces, written to corner_force[t]. Serial kernel; the engine calls it
+// on ranges in parallel (each triangle writes only its own slot).
+void compute_membrane_forces(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
+                             const std::vector<Mat2>& rest_inv, const std::vector<double>& rest_area,
+                             const MembraneParams& params, int32_t begin, int32_t end,
+                             std::vector<std::array<Vec3, 3>>& corner_force);
+
+double membrane_energy(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
+                       const std::vector<Mat2>& rest_inv, const std::vector<double>& rest_area,
+                       const MembraneParams& params);
+
+// Per-vertex sums in a fixed order (vertex → triangle fan, ascending), no atomics: the result does not
+// depend on the thread count. Vertices [begin, end).
+void gather_corner_forces(const Topology& topo, const std::vector<Tri>& tri,
+                          const std::vector<std::array<Vec3, 3>>& corner_force, int32_t begin, int32_t end,
+                          std::vector<Vec3>& vertex_force);
+
+}  // namespace pt

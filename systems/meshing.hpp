@@ -1,0 +1,45 @@
+// Meshing: a counter-clockwise outline polygon (pattern, meters) becomes a quality triangulation
+// (CGAL constrained Delaunay + Delaunay refinement, kept inside meshing.cpp) of about
+// `target_triangles` triangles, with a vertex exactly at every required point (finger positions).
+#pragma once
+
+#include "components/sheet.hpp"
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace pt {
+
+// A geometric problem of the input (self-intersecting outline, point outside, ...). The message is one
+// line that names the problem; the caller adds the file name.
+struct GeometryError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct MeshRequest {
+  std::vector<Vec2> outline;           // counter-clockwise simple polygon, ≥ 3 vertices, meters
+  std::vector<Vec2> required_points;   // must become mesh vertices (inside or on the outline)
+  int32_t target_triangles = 400;      // the result is within ±20% of this
+  uint64_t seed = 0;                   // 0: default mesh; others: a different irregular mesh of the same sheet
+  double rotation_deg = 0;             // orientation of the meshing frame
+  double min_angle_deg = 20;           // quality bound
+};
+
+// Outputs: `rest` (pattern positions), `tri` (counter-clockwise), `required_vertex[i]` the vertex id
+// placed at required_points[i]. Throws GeometryError on a non-simple, clockwise or degenerate outline,
+// a required point outside it, or a target outside [2, 2'000'000].
+void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vector<Tri>& tri,
+                  std::vector<int32_t>& required_vertex);
+
+// A4, A5, A3, A6 as a rectangle at the origin (width = short side along u). Throws GeometryError on an
+// unknown name.
+std::vector<Vec2> preset_outline(const std::string& name);
+
+// Validation used by mesh_outline and the scenario loader: empty string when the outline is a simple,
+// counter-clockwise polygon with positive area and no repeated or collinear-degenerate vertices.
+std::string outline_problem(const std::vector<Vec2>& outline);
+
+bool point_in_polygon(const std::vector<Vec2>& polygon, const Vec2& p, double tolerance = 1e-12);
+
+}  // namespace pt

@@ -1,0 +1,31 @@
+// Energy release rate, Griffith's test and the next tip (paper §5.2 eq. 6, DESIGN §5.4).
+#pragma once
+
+#include "components/sheet.hpp"
+#include "systems/clustering.hpp"
+
+namespace pt {
+
+struct PropagationParams {
+  double thickness = 1e-4;  // e
+  double speed = 2e-7;      // k: p_next = p + k · Er · t
+  double max_step = 0.01;   // m
+  double min_step = 0;      // m; steps shorter than this are lengthened to it (avoid slivers)
+};
+
+struct PropagationDecision {
+  double energy_release = 0;     // Er, J/m²
+  double angle = 0;              // φ ∈ [0, π] between F̄_left and F̄_right
+  Vec2 direction = Vec2::Zero(); // t (unit, pattern)
+  bool into_material = false;    // t lies inside the interior angle at p
+  bool propagate = false;        // Er ≥ Ef and into_material and both clusters non-empty
+  Vec2 next = Vec2::Zero();      // p_next (pattern), only when propagate
+};
+
+// Er = (‖F_left‖ + ‖F_right‖) cos(φ/2) / e with φ the angle between the pattern pre-images;
+// t = −normalize(F̄_l/‖F̄_l‖ + F̄_r/‖F̄_r‖).
+PropagationDecision decide_propagation(const ForceClusters& clusters, const Topology& topo,
+                                       const std::vector<Vec2>& rest, int32_t p, double fracture_energy,
+                                       const PropagationParams& params);
+
+}  // namespace pt

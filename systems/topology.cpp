@@ -1,0 +1,265 @@
+#include "systems/topology.hpp"
+
+#include <Eigen/LU>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+
+namespace pt {
+
+void update_rest_data(const std::vector<Vec2>& rest, const std::vector<Tri>& tri,
+                      std::vector<Mat2>& rest_inv, std::vector<double>& rest_area) {
+  const size_t n = tri.size();
+  rest_inv.resize(n);
+  rest_area.resize(n);
+  for (size_t t = 0; t < n; ++t) {
+    const Vec2& a = rest[tri[t][0]];
+    Mat2 dm;
+    dm.col(0) = rest[tri[t][1]] - a;
+    dm.col(1) = rest[tri[t][2]] - a;
+    const double det = dm.determinant();
+    rest_area[t] = 0.5 * det;
+    rest_inv[t] = det != 0 ? Mat2(dm.inverse()) : Mat2::Zero();
+  }
+}
+
+void lump_masses(const std::vector<Tri>& tri, const std::vector<double>& rest_area,
+                 const Material& material, std::vector<double>& mass) {
+  std::fill(mass.begin(), mass.end(), 0.0);
+  const double areal_density = material.density * material.thickness;
+  for (size_t t = 0; t < tri.size(); ++t)
+    for (int32_t c : tri[t]) mass[c] += areal_density * rest_area[t] / 3.0;
+}
+
+void build_topology(const std::vector<Tri>& tri, int32_t vertex_count, Topology& topo,
+                    std::vector<int32_t>& piece) {
+  const int32_t nt = static_cast<int32_t>(tri.size());
+  // Vertex → triangle CSR, ascending triangle ids per vertex.
+  topo.vt_offset.assign(vertex_count + 1, 0);
+  for (const Tri& t : tri)
+    for (int32_t c : t) ++topo.vt_offset[c + 1];
+  for (int32_t i = 0; i < vertex_count; ++i) topo.vt_offset[i + 1] += topo.vt_offset[i];
+  topo.vt_tri.assign(topo.vt_offset[vertex_count], -1);
+  {
+    std::vector<int32_t> fill(topo.vt_offset.begin(), topo.vt_offset.end() - 1);
+    for (int32_t t = 0; t < nt; ++t)
+      for (int32_t c : tri[t]) topo.vt_tri[fill[c]++] = t;
+  }
+  // Half-edges sorted by undirected key pair up neighbours.
+  struct HalfEdge {
+    int32_t lo, hi, t, i;
+  };
+  std::vector<HalfEdge> he;
+  he.reserve(3 * nt);
+  for (int32_t t = 0; t < nt; ++t)
+    for (int32_t i = 0; i < 3; ++i) {
+      const int32_t a = tri[t][i], b = tri[t][(i + 1) % 3];
+      he.push_back({std::min(a, b), std::max(a, b), t, i});
+    }
+  std::sort(he.begin(), he.end(), [](const HalfEdge& x, const HalfEdge& y) {
+    return std::tie(x.lo, x.hi, x.t, x.i) < std::tie(y.lo, y.hi, y.t, y.i);
+  });
+  topo.neighbor.assign(nt, {-1, -1, -1});
+  topo.hinges.clear();
+  for (size_t k = 0; k < he.size();) {
+    size_t m = k + 1;
+    while (m < he.size() && he[m].lo == he[k].lo && he[m].hi == he[k].hi) ++m;
+    if (m - k == 2) {
+      const HalfEdge& e0 = he[k];
+      const HalfEdge& e1 = he[k + 1];
+      topo.neighbor[e0.t][e0.i] = e1.t;
+      topo.neighbor[e1.t][e1.i] = e0.t;
+      // Orient the hinge so v0→v1 is counter-clockwise in the triangle holding v2.
+      const int32_t a0 = tri[e0.t][e0.i], b0 = tri[e0.t][(e0.i + 1) % 3];
+      const int32_t opp0 = tri[e0.t][(e0.i + 2) % 3];
+      const int32_t opp1 = tri[e1.t][(e1.i + 2) % 3];
+      topo.hinges.push_back(Hinge{{a0, b0, opp0, opp1}});
+    }
+    k = m;  // edges shared by more than two triangles stay unpaired; check_mesh_invariants reports them
+  }
+  std::sort(topo.hinges.begin(), topo.hinges.end(), [](const Hinge& x, const Hinge& y) {
+    return std::make_pair(std::min(x.v[0], x.v[1]), std::max(x.v[0], x.v[1])) <
+           std::make_pair(std::min(y.v[0], y.v[1]), std::max(y.v[0], y.v[1]));
+  });
+  topo.boundary_next.assign(vertex_count, -1);
+  topo.boundary_prev.assign(vertex_count, -1);
+  for (int32_t t = 0; t < nt; ++t)
+    for (int32_t i = 0; i < 3; ++i)
+      if (topo.neighbor[t][i] < 0) {
+        const int32_t a = tri[t][i], b = tri[t][(i + 1) % 3];
+        topo.boundary_next[a] = b;
+        topo.boundary_prev[b] = a;
+      }
+  // Pieces by flood fill over neighbours, seeded in ascending triangle order.
+  piece.assign(nt, -1);
+  std::vector<int32_t> stack;
+  int32_t count = 0;
+  for (int32_t s = 0; s < nt; ++s) {
+    if (piece[s] >= 0) continue;
+    piece[s] = count;
+    stack.push_back(s);
+    while (!stack.empty()) {
+      const int32_t t = stack.back();
+      stack.pop_back();
+      for (int32_t n : topo.neighbor[t])
+        if (n >= 0 && piece[n] < 0) {
+          piece[n] = count;
+          stack.push_back(n);
+        }
+    }
+    ++count;
+  }
+  topo.piece_count = count;
+}
+
+double interior_pattern_angle(const Topology& topo, const std::vector<Vec2>& rest, int32_t v) {
+  const int32_t next = topo.boundary_next[v], prev = topo.boundary_prev[v];
+  if (next < 0 || prev < 0) return 0.0;
+  const Vec2 a = rest[next] - rest[v];
+  const Vec2 b = rest[prev] - rest[v];
+  // Counter-clockwise angle from (next − v) to (prev − v): the interior lies on the left of the boundary.
+  double angle = std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b));
+  if (angle <= 0) angle += 2 * std::numbers::pi;
+  return angle;
+}
+
+void update_boundary_flags(const Topology& topo, const std::vector<Vec2>& rest, double inward_tolerance,
+                           std::vector<uint8_t>& flags) {
+  const int32_t n = static_cast<int32_t>(flags.size());
+  for (int32_t v = 0; v < n; ++v) {
+    uint8_t f = flags[v] & ~(kBoundary | kInward);
+    if (topo.boundary_next[v] >= 0) {
+      f |= kBoundary;
+      if (interior_pattern_angle(topo, rest, v) > std::numbers::pi + inward_tolerance) f |= kInward;
+    }
+    flags[v] = f;
+  }
+}
+
+void refresh_after_topology_change(Sheet& sheet) {
+  Vertices& V = sheet.verts;
+  Triangles& T = sheet.tris;
+  const int32_t nt = T.size();
+  T.corner_force.resize(nt, {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()});
+  T.region.resize(nt, -1);
+  T.side.resize(nt, 0);
+  update_rest_data(V.rest, T.tri, T.rest_inv, T.rest_area);
+  lump_masses(T.tri, T.rest_area, sheet.material, V.mass);
+  build_topology(T.tri, V.size(), sheet.topo, T.piece);
+  update_boundary_flags(sheet.topo, V.rest, 0.05, V.flags);
+  sheet.topology_version += 1;
+  sheet.topo.version = sheet.topology_version;
+}
+
+double total_rest_area(const Triangles& tris) {
+  double a = 0;
+  for (double x : tris.rest_area) a += x;
+  return a;
+}
+
+std::string check_mesh_invariants(const Sheet& sheet, double expected_area) {
+  const Vertices& V = sheet.verts;
+  const Triangles& T = sheet.tris;
+  const int32_t nv = V.size(), nt = T.size();
+  std::ostringstream err;
+  if (static_cast<int32_t>(V.v.size()) != nv || static_cast<int32_t>(V.rest.size()) != nv ||
+      static_cast<int32_t>(V.mass.size()) != nv || static_cast<int32_t>(V.flags.size()) != nv ||
+      static_cast<int32_t>(V.force.size()) != nv || static_cast<int32_t>(V.tear.size()) != nv)
+    return "vertex arrays differ in length";
+  if (static_cast<int32_t>(T.rest_inv.size()) != nt || static_cast<int32_t>(T.rest_area.size()) != nt ||
+      static_cast<int32_t>(T.corner_force.size()) != nt || static_cast<int32_t>(T.piece.size()) != nt)
+    return "triangle arrays differ in length";
+  for (int32_t t = 0; t < nt; ++t) {
+    for (int32_t c : T.tri[t])
+      if (c < 0 || c >= nv) {
+        err << "triangle " << t << " has invalid corner " << c;
+        return err.str();
+      }
+    const Vec2 a = V.rest[T.tri[t][0]], b = V.rest[T.tri[t][1]], c = V.rest[T.tri[t][2]];
+    const double area = 0.5 * ((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
+    if (!(area > 0)) {
+      err << "triangle " << t << " is not counter-clockwise (pattern area " << area << ")";
+      return err.str();
+    }
+  }
+  // Edge manifoldness.
+  std::vector<std::pair<int64_t, int32_t>> edges;
+  edges.reserve(3 * nt);
+  for (int32_t t = 0; t < nt; ++t)
+    for (int32_t i = 0; i < 3; ++i) {
+      const int64_t a = T.tri[t][i], b = T.tri[t][(i + 1) % 3];
+      edges.push_back({std::min(a, b) * nv + std::max(a, b), t});
+    }
+  std::sort(edges.begin(), edges.end());
+  for (size_t k = 0; k + 2 < edges.size() + 0 && k + 2 < edges.size(); ++k)
+    if (edges[k].first == edges[k + 2].first) {
+      err << "edge (" << edges[k].first / nv << "," << edges[k].first % nv << ") shared by more than two triangles";
+      return err.str();
+    }
+  for (size_t k = 0; k + 1 < edges.size(); ++k)
+    if (edges[k].first == edges[k + 1].first) {
+      // Same orientation twice means a flipped neighbour.
+      const int32_t t0 = edges[k].second, t1 = edges[k + 1].second;
+      const int32_t a = static_cast<int32_t>(edges[k].first / nv);
+      auto next_of = [&](int32_t t, int32_t v) {
+        for (int32_t i = 0; i < 3; ++i)
+          if (T.tri[t][i] == v) return T.tri[t][(i + 1) % 3];
+        return -1;
+      };
+      if (next_of(t0, a) == next_of(t1, a) && next_of(t0, a) != -1) {
+        err << "triangles " << t0 << " and " << t1 << " traverse a shared edge in the same direction";
+        return err.str();
+      }
+    }
+  // Fan connectivity: the triangles around each vertex form one edge-connected fan.
+  Topology topo;
+  std::vector<int32_t> piece;
+  build_topology(T.tri, nv, topo, piece);
+  for (int32_t v = 0; v < nv; ++v) {
+    const int32_t b = topo.vt_offset[v], e = topo.vt_offset[v + 1];
+    if (b == e) {
+      err << "vertex " << v << " belongs to no triangle";
+      return err.str();
+    }
+    std::vector<int32_t> fan(topo.vt_tri.begin() + b, topo.vt_tri.begin() + e);
+    std::vector<char> seen(fan.size(), 0);
+    std::vector<int32_t> stack{0};
+    seen[0] = 1;
+    size_t reached = 1;
+    while (!stack.empty()) {
+      const int32_t k = stack.back();
+      stack.pop_back();
+      for (int32_t n : topo.neighbor[fan[k]]) {
+        if (n < 0) continue;
+        auto it = std::find(fan.begin(), fan.end(), n);
+        if (it == fan.end()) continue;
+        const size_t j = static_cast<size_t>(it - fan.begin());
+        if (!seen[j]) {
+          seen[j] = 1;
+          ++reached;
+          stack.push_back(static_cast<int32_t>(j));
+        }
+      }
+    }
+    if (reached != fan.size()) {
+      err << "vertex " << v << " has a disconnected triangle fan (bow-tie)";
+      return err.str();
+    }
+  }
+  if (expected_area >= 0) {
+    double area = 0;
+    for (int32_t t = 0; t < nt; ++t) {
+      const Vec2 a = V.rest[T.tri[t][0]], b = V.rest[T.tri[t][1]], c = V.rest[T.tri[t][2]];
+      area += 0.5 * ((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
+    }
+    if (std::abs(area - expected_area) > 1e-9 * std::max(1.0, expected_area) + 1e-12) {
+      err << "total pattern area " << area << " differs from " << expected_area;
+      return err.str();
+    }
+  }
+  return {};
+}
+
+}  // namespace pt

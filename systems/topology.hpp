@@ -1,0 +1,41 @@
+// Topology and rest data derived from the triangle list: the vertex→triangle fans, triangle neighbours,
+// hinges for bending, boundary loops, pieces, boundary and inward-angle flags, lumped masses.
+// Every system that changes triangles calls `refresh_after_topology_change` once at the end.
+#pragma once
+
+#include "components/sheet.hpp"
+
+#include <string>
+
+namespace pt {
+
+// Inverse rest matrix and pattern area of every triangle (Triangles::rest_inv, rest_area).
+void update_rest_data(const std::vector<Vec2>& rest, const std::vector<Tri>& tri,
+                      std::vector<Mat2>& rest_inv, std::vector<double>& rest_area);
+
+// Lumped masses: each triangle gives a third of density · thickness · area to each corner.
+void lump_masses(const std::vector<Tri>& tri, const std::vector<double>& rest_area,
+                 const Material& material, std::vector<double>& mass);
+
+// Fans, neighbours, hinges, boundary next/prev and connected pieces (written to `piece`, numbered in
+// order of their lowest triangle so the numbering does not depend on anything but the triangle list).
+void build_topology(const std::vector<Tri>& tri, int32_t vertex_count, Topology& topo,
+                    std::vector<int32_t>& piece);
+
+// Interior angle of the sheet at boundary vertex v, in the pattern, in (0, 2π); 0 for interior vertices.
+double interior_pattern_angle(const Topology& topo, const std::vector<Vec2>& rest, int32_t v);
+
+// kBoundary and kInward (interior angle > π + inward_tolerance) from the topology; other bits kept.
+void update_boundary_flags(const Topology& topo, const std::vector<Vec2>& rest, double inward_tolerance,
+                           std::vector<uint8_t>& flags);
+
+// All of the above, plus topology_version bump. Call after meshing or any remesh.
+void refresh_after_topology_change(Sheet& sheet);
+
+// DESIGN §5.5 invariants. Returns an empty string when they hold, else a description of the first
+// violation. `expected_area` < 0 skips the area check.
+std::string check_mesh_invariants(const Sheet& sheet, double expected_area = -1);
+
+double total_rest_area(const Triangles& tris);
+
+}  // namespace pt
