@@ -7,6 +7,7 @@
 #include "components/sheet.hpp"
 #include "systems/bending_forces.hpp"
 #include "systems/membrane_forces.hpp"
+#include "systems/parallel.hpp"
 
 #include <memory>
 
@@ -17,6 +18,8 @@ struct IntegrateParams {
   Vec3 gravity = Vec3(0, 0, -9.81);
   int32_t iterations = 2;         // local/global iterations per substep
   double damping = 2.0;           // 1/s
+  RangeRunner run = run_serial;   // parallel loops over triangles / vertices (engine supplies oneTBB)
+  int32_t grain = 512;
 };
 
 // Opaque solver state (factorisation, scratch). One per sheet.
