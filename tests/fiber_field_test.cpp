@@ -107,9 +107,9 @@ TEST(FiberField, OctavesAddSmallScaleVariation) {
   one.octaves = 1;
   FiberField many = field(11);
   many.octaves = 5;
-  // At a twentieth of the feature size a single octave is almost flat; the finer octaves add variation.
+  // At a twentieth of the feature size a single octave is almost flat; the finer octaves add variation
+  // there (relative to the variation at the feature size, since the octave count changes the normalisation).
   const double h = many.feature_size / 20;
-  EXPECT_GT(structure(many, h), 2.0 * structure(one, h));
   EXPECT_GT(structure(many, h) / structure(many, many.feature_size),
             1.5 * structure(one, h) / structure(one, one.feature_size));
   // Small-scale variation exists at all (not just a smooth blob).
