@@ -1,1 +1,97 @@
-// placeholder: implemented by its issue
+#include "engine/sheet_builder.hpp"
+
+#include "systems/meshing.hpp"
+#include "systems/topology.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace pt {
+
+namespace {
+void bounding_box(const std::vector<Vec2>& outline, Vec2& lo, Vec2& hi) {
+  lo = hi = outline.front();
+  for (const Vec2& p : outline) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+}
+}  // namespace
+
+Sheet build_sheet(const Scenario& scenario) {
+  MeshRequest request;
+  request.outline = scenario.outline;
+  request.target_triangles = scenario.triangles;
+  request.seed = scenario.mesh_seed;
+  request.rotation_deg = scenario.mesh_rotation_deg;
+  for (const FingerSpec& f : scenario.fingers) request.required_points.push_back(f.at);
+
+  std::vector<Vec2> rest;
+  std::vector<Tri> tri;
+  std::vector<int32_t> required_vertex;
+  mesh_outline(request, rest, tri, required_vertex);
+
+  Sheet sheet;
+  sheet.material = scenario.material;
+  const int32_t nv = static_cast<int32_t>(rest.size());
+  sheet.verts.resize(nv);
+  sheet.verts.rest = rest;
+  for (int32_t i = 0; i < nv; ++i) sheet.verts.x[i] = Vec3(rest[i].x(), rest[i].y(), 0.0);
+  sheet.tris.resize(static_cast<int32_t>(tri.size()));
+  sheet.tris.tri = tri;
+
+  for (size_t i = 0; i < scenario.fingers.size(); ++i) {
+    const FingerSpec& spec = scenario.fingers[i];
+    Finger f;
+    f.name = spec.name;
+    f.uv = spec.at;
+    f.vertex = required_vertex[i];
+    f.keys = spec.keys;
+    f.start = Vec3(spec.at.x(), spec.at.y(), 0.0);
+    f.target = f.start;
+    sheet.fingers.push_back(f);
+    sheet.verts.flags[f.vertex] |= kFinger;
+  }
+  for (const HandSpec& spec : scenario.hands) {
+    Hand h;
+    h.name = spec.name;
+    h.keys = spec.keys;
+    Vec3 c = Vec3::Zero();
+    for (const std::string& name : spec.fingers)
+      for (size_t i = 0; i < sheet.fingers.size(); ++i)
+        if (sheet.fingers[i].name == name) {
+          h.fingers.push_back(static_cast<int32_t>(i));
+          sheet.fingers[i].hand = static_cast<int32_t>(sheet.hands.size());
+          c += sheet.fingers[i].start;
+        }
+    if (!h.fingers.empty()) c /= static_cast<double>(h.fingers.size());
+    h.centroid = c;
+    sheet.hands.push_back(h);
+  }
+  refresh_after_topology_change(sheet);
+  return sheet;
+}
+
+std::array<int32_t, 2> texture_size(const Scenario& scenario) {
+  if (scenario.detail.texture[0] > 0 && scenario.detail.texture[1] > 0) return scenario.detail.texture;
+  Vec2 lo, hi;
+  bounding_box(scenario.outline, lo, hi);
+  const Vec2 size = hi - lo;
+  return {std::max(1, static_cast<int32_t>(std::ceil(size.x() / 1e-4))),
+          std::max(1, static_cast<int32_t>(std::ceil(size.y() / 1e-4)))};
+}
+
+FiberField make_fiber_field(const Scenario& scenario) {
+  FiberField f;
+  f.seed = scenario.material.fiber_seed;
+  f.feature_size = scenario.material.fiber_scale;
+  Vec2 lo, hi;
+  bounding_box(scenario.outline, lo, hi);
+  f.origin = lo;
+  const auto size = texture_size(scenario);
+  // Square pixels: the larger of the two spacings covers the whole box.
+  f.pixel_size = std::max((hi.x() - lo.x()) / size[0], (hi.y() - lo.y()) / size[1]);
+  return f;
+}
+
+}  // namespace pt

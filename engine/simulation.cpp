@@ -1,1 +1,413 @@
-// placeholder: implemented by its issue
+// The frame graph of one sheet (DESIGN §3). Built once per sheet; each node is named after the system it
+// runs. Parallelism comes from two places: the kernels inside a node run their ranges with oneTBB
+// (forces, projective dynamics' local step) inside the sheet's task arena, and the carving of the
+// previous frame's segments runs beside this frame's physics, since it only reads tips that are fixed.
+#include "engine/simulation.hpp"
+
+#include "engine/sheet_builder.hpp"
+#include "systems/bending_forces.hpp"
+#include "systems/candidates.hpp"
+#include "systems/carving.hpp"
+#include "systems/clustering.hpp"
+#include "systems/fingers.hpp"
+#include "systems/integrate.hpp"
+#include "systems/membrane_forces.hpp"
+#include "systems/propagation.hpp"
+#include "systems/regions.hpp"
+#include "systems/remeshing.hpp"
+#include "systems/topology.hpp"
+
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/flow_graph.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/partitioner.h>
+#include <oneapi/tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <set>
+
+namespace pt {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// Scoped timer adding to one FrameProfile field.
+struct ScopedTimer {
+  double& slot;
+  Clock::time_point t0 = Clock::now();
+  explicit ScopedTimer(double& s) : slot(s) {}
+  ~ScopedTimer() { slot += ms_since(t0); }
+};
+
+uint64_t fnv1a(uint64_t h, const void* data, size_t bytes) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < bytes; ++i) {
+    h ^= p[i];
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+}  // namespace
+
+void TimingReport::add(const FrameProfile& p) {
+  const double values[11] = {p.fingers,    p.forces,      p.integrate, p.regions,    p.candidates, p.clustering,
+                             p.propagation, p.remeshing, p.relaxation, p.carving, p.frame};
+  for (size_t i = 0; i < 11; ++i) systems[i].add(values[i]);
+  physics.add(p.physics());
+  geometry.add(p.geometry());
+  tearing.add(p.tearing());
+  carving.add(p.carving);
+  frame.add(p.frame);
+}
+
+std::string hash_sheet(const Sheet& s) {
+  uint64_t h = 1469598103934665603ull;
+  h = fnv1a(h, s.verts.x.data(), s.verts.x.size() * sizeof(Vec3));
+  h = fnv1a(h, s.verts.v.data(), s.verts.v.size() * sizeof(Vec3));
+  h = fnv1a(h, s.verts.rest.data(), s.verts.rest.size() * sizeof(Vec2));
+  h = fnv1a(h, s.tris.tri.data(), s.tris.tri.size() * sizeof(Tri));
+  for (const Tear& t : s.tears) {
+    h = fnv1a(h, &t.id, sizeof t.id);
+    h = fnv1a(h, &t.parent, sizeof t.parent);
+    h = fnv1a(h, t.tips.data(), t.tips.size() * sizeof(Vec2));
+    h = fnv1a(h, t.detail.data(), t.detail.size() * sizeof(Vec2));
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+struct Simulation::Impl {
+  Scenario scenario;
+  EngineOptions options;
+  Sheet sheet;
+  FiberField fiber;
+  DetailParams detail;
+  CarveState carve_state;
+
+  IntegrateParams integrate_params;
+  ProjectiveSolverPtr solver;
+  MembraneParams membrane;
+  std::vector<BendingStencil> bending;
+  uint64_t bending_version = ~uint64_t{0};
+  RegionParams region_params;
+  ClusterParams cluster_params;
+  PropagationParams propagation_params;
+  RemeshParams remesh_params;
+
+  int32_t frame = 0;
+  std::vector<Vec3> targets_begin;  // finger targets at the start of the frame
+  std::vector<Candidate> candidates;
+  FrameProfile profile;
+  TimingReport timings;
+  std::vector<FrameStats> stats;
+  std::vector<TearEvent> events;
+  RegionSummary region_summary;
+
+  tbb::task_arena arena;
+  tbb::flow::graph graph;
+  std::unique_ptr<tbb::flow::broadcast_node<tbb::flow::continue_msg>> start;
+  std::vector<std::unique_ptr<tbb::flow::continue_node<tbb::flow::continue_msg>>> nodes;
+
+  Impl(const Scenario& s, const EngineOptions& o) : scenario(s), options(o), arena(std::max(1, o.threads)) {
+    sheet = build_sheet(scenario);
+    fiber = make_fiber_field(scenario);
+    const auto size = texture_size(scenario);
+    detail.origin = fiber.origin;
+    detail.pixel_size = fiber.pixel_size;
+    detail.width = size[0];
+    detail.height = size[1];
+    detail.sigma = scenario.detail.sigma;
+    detail.omega = scenario.detail.omega;
+
+    const Material& m = sheet.material;
+    integrate_params.dt = 1.0 / (scenario.sim.fps * scenario.sim.substeps);
+    integrate_params.gravity = scenario.sim.gravity;
+    integrate_params.iterations = scenario.sim.iterations;
+    integrate_params.damping = m.damping;
+    integrate_params.grain = options.parallel_grain;
+    integrate_params.run = [this](int32_t count, int32_t grain, const RangeTask& task) {
+      run_ranges(count, grain, task);
+    };
+    membrane = membrane_params(m);
+    propagation_params.thickness = m.thickness;
+    propagation_params.speed = m.speed;
+    propagation_params.max_step = m.max_step;
+
+    update_finger_targets(0.0, sheet.hands, sheet.fingers);
+    for (Finger& f : sheet.fingers) f.reaction.setZero();
+    build_graph();
+  }
+
+  // Kernels split [0, count) into fixed ranges of `grain`; each range writes its own outputs, so the
+  // result is the same whichever thread runs which range (DESIGN §3 determinism).
+  void run_ranges(int32_t count, int32_t grain, const RangeTask& task) const {
+    if (count <= 0) return;
+    if (options.threads <= 1 || count <= grain) {
+      task(0, count);
+      return;
+    }
+    tbb::parallel_for(
+        tbb::blocked_range<int32_t>(0, count, std::max(1, grain)),
+        [&](const tbb::blocked_range<int32_t>& r) { task(r.begin(), r.end()); }, tbb::simple_partitioner());
+  }
+
+  double time_at(int32_t f) const { return f / scenario.sim.fps; }
+
+  void held_vertices(double alpha, std::vector<int32_t>& held, std::vector<Vec3>& target) const {
+    held.clear();
+    target.clear();
+    for (size_t i = 0; i < sheet.fingers.size(); ++i) {
+      const Finger& f = sheet.fingers[i];
+      if (f.vertex < 0) continue;
+      held.push_back(f.vertex);
+      target.push_back((1 - alpha) * targets_begin[i] + alpha * f.target);
+    }
+  }
+
+  // --- systems as run by the graph -------------------------------------------------------------------
+
+  void run_fingers() {
+    ScopedTimer timer(profile.fingers);
+    targets_begin.clear();
+    for (const Finger& f : sheet.fingers) targets_begin.push_back(f.target);
+    update_finger_targets(time_at(frame + 1), sheet.hands, sheet.fingers);
+  }
+
+  void substep(double alpha) {
+    std::vector<int32_t> held;
+    std::vector<Vec3> target;
+    held_vertices(alpha, held, target);
+    prepare_projective_solver(sheet, integrate_params, solver);
+    integrate_substep(integrate_params, held, target, *solver, sheet);
+  }
+
+  void run_physics() {
+    ScopedTimer timer(profile.integrate);
+    const int32_t n = scenario.sim.substeps;
+    for (int32_t s = 1; s <= n; ++s) substep(static_cast<double>(s) / n);
+  }
+
+  // Membrane corner forces (kept for clustering), per-vertex sums and bending, then finger reactions.
+  void compute_forces() {
+    Vertices& V = sheet.verts;
+    Triangles& T = sheet.tris;
+    if (bending_version != sheet.topology_version) {
+      build_bending_stencils(V.rest, sheet.topo.hinges, bending_stiffness(sheet.material), bending);
+      bending_version = sheet.topology_version;
+    }
+    run_ranges(T.size(), options.parallel_grain, [&](int32_t b, int32_t e) {
+      compute_membrane_forces(V.x, T.tri, T.rest_inv, T.rest_area, membrane, b, e, T.corner_force);
+    });
+    run_ranges(V.size(), options.parallel_grain, [&](int32_t b, int32_t e) {
+      gather_corner_forces(sheet.topo, T.tri, T.corner_force, b, e, V.force);
+    });
+    add_bending_forces(V.x, bending, V.force);
+    // A held vertex is in quasi-static balance: the finger supplies what the sheet and gravity do not.
+    for (Finger& f : sheet.fingers) {
+      if (f.vertex < 0) {
+        f.reaction.setZero();
+        continue;
+      }
+      f.reaction = -(V.force[f.vertex] + V.mass[f.vertex] * scenario.sim.gravity);
+      f.max_force = std::max(f.max_force, f.reaction.norm());
+    }
+  }
+
+  void run_forces() {
+    ScopedTimer timer(profile.forces);
+    compute_forces();
+  }
+
+  void run_regions() {
+    ScopedTimer timer(profile.regions);
+    region_summary = classify_regions(sheet.verts.x, sheet.tris.tri, sheet.topo, region_params, sheet.tris.region,
+                                      sheet.regions, sheet.verts.flags);
+  }
+
+  void run_candidates() {
+    ScopedTimer timer(profile.candidates);
+    find_candidates(sheet.verts, sheet.tips, sheet.fingers, sheet.material, fiber, candidates);
+  }
+
+  void refresh_role_flags() {
+    for (uint8_t& f : sheet.verts.flags) f &= static_cast<uint8_t>(~(kFinger | kTip));
+    for (const Finger& f : sheet.fingers)
+      if (f.vertex >= 0) sheet.verts.flags[f.vertex] |= kFinger;
+    for (const Tip& t : sheet.tips) sheet.verts.flags[t.vertex] |= kTip;
+  }
+
+  // Paper Fig. 4 steps 2–4 for each potential tearing point in turn: clustering, propagation,
+  // remeshing, then one relaxation step so the lips move apart before the next point is treated.
+  void run_tearing() {
+    std::set<std::pair<double, double>> visited;  // pattern positions already treated this frame
+    std::set<int32_t> extended;                   // tears already propagated this frame
+    size_t index = 0;
+    int32_t propagations = 0;
+    const int32_t max_propagations = 64;  // a frame's budget: every propagation re-lists the candidates
+    while (index < candidates.size() && propagations < max_propagations) {
+      const Candidate c = candidates[index++];
+      const Vec2 uv = sheet.verts.rest[c.vertex];
+      if (!visited.insert({uv.x(), uv.y()}).second) continue;
+      if (c.tear >= 0 && extended.count(c.tear)) continue;
+
+      ForceClusters clusters;
+      PropagationDecision decision;
+      {
+        ScopedTimer timer(profile.clustering);
+        if (!cluster_tip_forces(sheet.verts, sheet.tris, sheet.topo, c.vertex, cluster_params, clusters)) continue;
+      }
+      {
+        ScopedTimer timer(profile.propagation);
+        decision = decide_propagation(clusters, sheet.topo, sheet.verts.rest, c.vertex, c.fracture_energy,
+                                      propagation_params);
+      }
+      if (!decision.propagate) continue;
+
+      CutResult cut;
+      int32_t tear_id = c.tear;
+      {
+        ScopedTimer timer(profile.remeshing);
+        Vec2 previous = Vec2::Zero();
+        bool new_tear = tear_id < 0;
+        if (new_tear) {
+          tear_id = static_cast<int32_t>(sheet.tears.size());
+        } else {
+          for (const Tip& t : sheet.tips)
+            if (t.tear == tear_id) previous = t.direction;
+        }
+        const int32_t parent = new_tear ? sheet.verts.tear[c.vertex] : -1;
+        const int32_t pieces_before = sheet.topo.piece_count;
+        cut = cut_tear_segment(c.vertex, decision.next, previous, tear_id, remesh_params, sheet);
+        if (!cut.cut) continue;
+        if (new_tear) {
+          Tear t;
+          t.id = tear_id;
+          t.parent = parent;
+          t.start_kind = c.kind;
+          t.start_frame = frame;
+          t.start_uv = uv;
+          t.tips.push_back(uv);
+          sheet.tears.push_back(t);
+          events.push_back({TearEvent::TearStarted, tear_id, frame});
+        } else {
+          events.push_back({TearEvent::TearExtended, tear_id, frame});
+        }
+        Tear& tear = sheet.tears[tear_id];
+        tear.tips.push_back(cut.end);
+        const Vec2 d = cut.end - uv;
+        const Vec2 dir = d.norm() > 0 ? Vec2(d / d.norm()) : Vec2::Zero();
+        sheet.tips.erase(std::remove_if(sheet.tips.begin(), sheet.tips.end(),
+                                        [&](const Tip& t) { return t.tear == tear_id; }),
+                         sheet.tips.end());
+        if (cut.reached_boundary) {
+          tear.reached_boundary = true;
+        } else {
+          sheet.tips.push_back(Tip{cut.tip_vertex, tear_id, dir});
+        }
+        if (sheet.topo.piece_count > pieces_before) events.push_back({TearEvent::PieceSeparated, tear_id, frame});
+        refresh_role_flags();
+        extended.insert(tear_id);
+      }
+      {
+        ScopedTimer timer(profile.relaxation);
+        substep(1.0);
+        compute_forces();
+      }
+      // Vertex ids changed: find the candidates again and go on with the ones not yet treated.
+      {
+        ScopedTimer timer(profile.candidates);
+        find_candidates(sheet.verts, sheet.tips, sheet.fingers, sheet.material, fiber, candidates);
+      }
+      index = 0;
+      ++propagations;
+    }
+  }
+
+  void run_carving() {
+    ScopedTimer timer(profile.carving);
+    carve_new_segments(fiber, detail, sheet.tears, carve_state);
+  }
+
+  // --- the graph --------------------------------------------------------------------------------------
+
+  tbb::flow::continue_node<tbb::flow::continue_msg>& node(std::function<void()> body) {
+    nodes.push_back(std::make_unique<tbb::flow::continue_node<tbb::flow::continue_msg>>(
+        graph, [body = std::move(body)](const tbb::flow::continue_msg&) { body(); }));
+    return *nodes.back();
+  }
+
+  void build_graph() {
+    using tbb::flow::make_edge;
+    start = std::make_unique<tbb::flow::broadcast_node<tbb::flow::continue_msg>>(graph);
+    auto& fingers = node([this] { run_fingers(); });
+    auto& physics = node([this] { run_physics(); });
+    auto& forces = node([this] { run_forces(); });
+    auto& regions = node([this] { run_regions(); });
+    auto& cands = node([this] { run_candidates(); });
+    auto& carving = node([this] { run_carving(); });
+    auto& tearing = node([this] { run_tearing(); });
+    make_edge(*start, fingers);
+    make_edge(fingers, physics);   // substeps interpolate towards the frame's finger targets
+    make_edge(physics, forces);    // forces of the state the frame ends in, read by clustering
+    make_edge(forces, regions);    // depends on: x after integration (regions read dihedral angles)
+    make_edge(regions, cands);     // junction points come from the regions
+    make_edge(cands, tearing);     // the potential tearing points, in order
+    // Carving reads the tips of segments cut in earlier frames, which nothing above changes; it runs
+    // beside the physics and must end before tearing appends new tips (tearing has two predecessors).
+    make_edge(*start, carving);
+    make_edge(carving, tearing);
+  }
+
+  void step() {
+    profile = FrameProfile{};
+    const auto t0 = Clock::now();
+    arena.execute([&] {
+      start->try_put(tbb::flow::continue_msg());
+      graph.wait_for_all();
+    });
+    ++frame;
+    profile.frame = ms_since(t0);
+    timings.add(profile);
+    stats.push_back(FrameStats{sheet.tris.size(), region_summary.regions, region_summary.junctions,
+                               static_cast<int32_t>(candidates.size())});
+  }
+};
+
+Simulation::Simulation(const Scenario& scenario, const EngineOptions& options)
+    : impl_(std::make_unique<Impl>(scenario, options)) {}
+Simulation::~Simulation() = default;
+
+void Simulation::step() { impl_->step(); }
+void Simulation::flush() {
+  impl_->arena.execute([&] { carve_new_segments(impl_->fiber, impl_->detail, impl_->sheet.tears, impl_->carve_state); });
+}
+int32_t Simulation::frame() const { return impl_->frame; }
+double Simulation::time() const { return impl_->time_at(impl_->frame); }
+const Sheet& Simulation::sheet() const { return impl_->sheet; }
+Sheet& Simulation::mutable_sheet() { return impl_->sheet; }
+const Scenario& Simulation::scenario() const { return impl_->scenario; }
+const FiberField& Simulation::fiber() const { return impl_->fiber; }
+const DetailParams& Simulation::detail_params() const { return impl_->detail; }
+const CarveState& Simulation::carve_state() const { return impl_->carve_state; }
+const FrameProfile& Simulation::last_profile() const { return impl_->profile; }
+const TimingReport& Simulation::timings() const { return impl_->timings; }
+const std::vector<FrameStats>& Simulation::frame_stats() const { return impl_->stats; }
+const std::vector<TearEvent>& Simulation::events() const { return impl_->events; }
+const std::vector<Candidate>& Simulation::candidates() const { return impl_->candidates; }
+int32_t Simulation::threads() const { return impl_->options.threads; }
+std::string Simulation::state_hash() const { return hash_sheet(impl_->sheet); }
+void Simulation::notify_topology_changed() {
+  refresh_after_topology_change(impl_->sheet);
+  impl_->refresh_role_flags();
+}
+
+}  // namespace pt

@@ -4,6 +4,8 @@
 
 #include "components/sheet.hpp"
 #include "engine/scenario.hpp"
+#include "systems/candidates.hpp"
+#include "systems/carving.hpp"
 #include "systems/fiber_field.hpp"
 
 #include <array>
@@ -74,6 +76,9 @@ class Simulation {
   Simulation& operator=(const Simulation&) = delete;
 
   void step();              // one frame
+  // Carves the segments of the last frame, which otherwise wait for the next frame's carving node (it
+  // runs beside the physics). Call before reading tears' `detail` or writing results.
+  void flush();
   int32_t frame() const;    // frames done
   double time() const;      // s
 
@@ -81,6 +86,9 @@ class Simulation {
   Sheet& mutable_sheet();   // for tools that move fingers by hand; call notify_topology_changed() after edits
   const Scenario& scenario() const;
   const FiberField& fiber() const;
+  const DetailParams& detail_params() const;
+  const CarveState& carve_state() const;
+  const std::vector<Candidate>& candidates() const;  // potential tearing points of the last frame
   const FrameProfile& last_profile() const;
   const TimingReport& timings() const;
   const std::vector<FrameStats>& frame_stats() const;
