@@ -1,1 +1,244 @@
-// placeholder: implemented by its issue
+#include "engine/batch.hpp"
+
+#include <nlohmann/json.hpp>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace pt {
+
+Variation parse_variation(const std::string& text) {
+  const auto eq = text.find('=');
+  const auto colon = text.find(':', eq == std::string::npos ? 0 : eq);
+  if (eq == std::string::npos || colon == std::string::npos)
+    throw InputError("--vary " + text + ": expected KEY=FROM:TO");
+  Variation v;
+  v.key = text.substr(0, eq);
+  static const char* known[] = {"material.thickness", "material.density",   "material.young",
+                                "material.poisson",   "material.bending_scale", "material.tip_damage",
+                                "material.fracture_c", "material.speed",    "material.max_step",
+                                "material.damping",   "material.fiber_scale", "detail.sigma",
+                                "detail.omega",       "sim.substeps",       "sim.iterations",
+                                "finger_speed"};
+  bool ok = false;
+  for (const char* k : known) ok = ok || v.key == k;
+  if (!ok) throw InputError("--vary " + text + ": unknown key '" + v.key + "'");
+  try {
+    size_t used = 0;
+    const std::string a = text.substr(eq + 1, colon - eq - 1), b = text.substr(colon + 1);
+    v.from = std::stod(a, &used);
+    if (used != a.size()) throw std::invalid_argument(a);
+    v.to = std::stod(b, &used);
+    if (used != b.size()) throw std::invalid_argument(b);
+  } catch (const std::exception&) {
+    throw InputError("--vary " + text + ": FROM and TO must be numbers");
+  }
+  if (!std::isfinite(v.from) || !std::isfinite(v.to)) throw InputError("--vary " + text + ": not finite");
+  return v;
+}
+
+namespace {
+void apply_variation(const std::string& key, double value, Scenario& s) {
+  Material& m = s.material;
+  if (key == "material.thickness") m.thickness = value;
+  else if (key == "material.density") m.density = value;
+  else if (key == "material.young") m.young = value;
+  else if (key == "material.poisson") m.poisson = value;
+  else if (key == "material.bending_scale") m.bending_scale = value;
+  else if (key == "material.tip_damage") m.tip_damage = value;
+  else if (key == "material.fracture_c") m.fracture_c = value;
+  else if (key == "material.speed") m.speed = value;
+  else if (key == "material.max_step") m.max_step = value;
+  else if (key == "material.damping") m.damping = value;
+  else if (key == "material.fiber_scale") m.fiber_scale = value;
+  else if (key == "detail.sigma") s.detail.sigma = value;
+  else if (key == "detail.omega") s.detail.omega = value;
+  else if (key == "sim.substeps") s.sim.substeps = std::max(1, static_cast<int32_t>(std::lround(value)));
+  else if (key == "sim.iterations") s.sim.iterations = std::max(1, static_cast<int32_t>(std::lround(value)));
+  else if (key == "finger_speed") {
+    // Motions play `value` times faster: every key time is divided by it.
+    const double scale = value > 0 ? value : 1.0;
+    for (FingerSpec& f : s.fingers)
+      for (FingerKey& k : f.keys) k.t /= scale;
+    for (HandSpec& h : s.hands)
+      for (HandKey& k : h.keys) k.t /= scale;
+  }
+}
+
+template <class T>
+size_t bytes_of(const std::vector<T>& v) {
+  return v.capacity() * sizeof(T);
+}
+}  // namespace
+
+size_t sheet_bytes(const Sheet& s) {
+  size_t b = sizeof(Sheet);
+  b += bytes_of(s.verts.x) + bytes_of(s.verts.v) + bytes_of(s.verts.force) + bytes_of(s.verts.rest) +
+       bytes_of(s.verts.mass) + bytes_of(s.verts.flags) + bytes_of(s.verts.tear);
+  b += bytes_of(s.tris.tri) + bytes_of(s.tris.rest_inv) + bytes_of(s.tris.rest_area) +
+       bytes_of(s.tris.corner_force) + bytes_of(s.tris.region) + bytes_of(s.tris.piece) + bytes_of(s.tris.side);
+  b += bytes_of(s.topo.vt_offset) + bytes_of(s.topo.vt_tri) + bytes_of(s.topo.neighbor) + bytes_of(s.topo.hinges) +
+       bytes_of(s.topo.boundary_next) + bytes_of(s.topo.boundary_prev);
+  b += bytes_of(s.regions) + bytes_of(s.tips) + bytes_of(s.tears) + bytes_of(s.fingers) + bytes_of(s.hands);
+  for (const Tear& t : s.tears) b += bytes_of(t.tips) + bytes_of(t.detail);
+  for (const Finger& f : s.fingers) b += bytes_of(f.keys) + f.name.capacity();
+  return b;
+}
+
+Scenario batch_sheet_scenario(const Scenario& base, const BatchOptions& options, int32_t index) {
+  Scenario s = base;
+  // Sheet 0 is the scenario itself; the others get their own fibres and mesh (splitmix-style spread).
+  if (index > 0) {
+    uint64_t z = base.material.fiber_seed + 0x9E3779B97F4A7C15ull * static_cast<uint64_t>(index);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    s.material.fiber_seed = (z ^ (z >> 31)) | 1u;
+    s.mesh_seed = base.mesh_seed + static_cast<uint64_t>(index);
+  }
+  if (options.frames >= 0) s.sim.frames = options.frames;
+  for (const Variation& v : options.vary) {
+    const double a = options.sheets > 1 ? static_cast<double>(index) / (options.sheets - 1) : 0.0;
+    apply_variation(v.key, v.from + (v.to - v.from) * a, s);
+  }
+  return s;
+}
+
+BatchResult run_batch(const Scenario& base, const BatchOptions& options,
+                      const std::function<void(int32_t, int32_t)>& progress) {
+  BatchResult result;
+  result.sheets = options.sheets;
+  result.threads = options.threads;
+  result.frames = options.frames >= 0 ? options.frames : base.sim.frames;
+  result.outcomes.resize(options.sheets);
+  std::vector<TimingReport> reports(options.sheets);
+  std::vector<size_t> bytes(options.sheets, 0);
+  std::atomic<int32_t> done{0};
+
+  const auto t0 = std::chrono::steady_clock::now();
+  tbb::task_arena arena(std::max(1, options.threads));
+  arena.execute([&] {
+    // One sheet per task: sheets differ in cost (tears, remeshing) and work stealing evens them out.
+    tbb::parallel_for(0, options.sheets, [&](int32_t i) {
+      SheetOutcome& out = result.outcomes[i];
+      out.index = i;
+      const Scenario s = batch_sheet_scenario(base, options, i);
+      out.fiber_seed = s.material.fiber_seed;
+      out.mesh_seed = s.mesh_seed;
+      for (const Variation& v : options.vary) {
+        const double a = options.sheets > 1 ? static_cast<double>(i) / (options.sheets - 1) : 0.0;
+        out.varied.push_back(v.from + (v.to - v.from) * a);
+      }
+      try {
+        EngineOptions eo;
+        eo.threads = std::max(1, options.threads_per_sheet);
+        Simulation sim(s, eo);
+        for (int32_t f = 0; f < s.sim.frames; ++f) sim.step();
+        sim.flush();
+        const Sheet& sh = sim.sheet();
+        out.triangles = sh.tris.size();
+        out.tears = static_cast<int32_t>(sh.tears.size());
+        out.pieces = sh.topo.piece_count;
+        for (const Tear& t : sh.tears)
+          for (size_t k = 1; k < t.tips.size(); ++k) out.tear_length += (t.tips[k] - t.tips[k - 1]).norm();
+        for (const Finger& f : sh.fingers) out.max_finger_force = std::max(out.max_finger_force, f.max_force);
+        out.frame_ms = sim.timings().frame.avg();
+        out.hash = sim.state_hash();
+        reports[i] = sim.timings();
+        bytes[i] = sheet_bytes(sh);
+        for (const FrameStats& fs : sim.frame_stats())
+          for (size_t k = 0; k < 11; ++k) result.throughput[k].triangles += fs.triangles;
+      } catch (const std::exception& e) {
+        out.status = std::string("error: ") + e.what();
+      }
+      const int32_t n = ++done;
+      if (progress) progress(n, options.sheets);
+    });
+  });
+  result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  // Merge per-sheet reports in sheet order (deterministic sums).
+  size_t total_bytes = 0;
+  int64_t sheet_frames = 0;
+  for (int32_t i = 0; i < options.sheets; ++i) {
+    for (size_t k = 0; k < 11; ++k) {
+      const TimingStat& s = reports[i].systems[k];
+      result.systems[k].sum += s.sum;
+      result.systems[k].count += s.count;
+      result.systems[k].max = std::max(result.systems[k].max, s.max);
+      result.throughput[k].calls += s.count;
+      result.throughput[k].total_ms += s.sum;
+    }
+    sheet_frames += reports[i].frame.count;
+    total_bytes += bytes[i];
+  }
+  result.bytes_per_sheet = options.sheets ? total_bytes / options.sheets : 0;
+  result.sheet_frames_per_s = result.wall_s > 0 ? static_cast<double>(sheet_frames) / result.wall_s : 0.0;
+  return result;
+}
+
+void write_batch_json(const BatchResult& r, const std::string& scenario_name, const std::string& path) {
+  nlohmann::ordered_json j;
+  j["scenario"] = scenario_name;
+  j["sheets"] = r.sheets;
+  j["threads"] = r.threads;
+  j["frames"] = r.frames;
+  j["wall_s"] = r.wall_s;
+  j["sheet_frames_per_s"] = r.sheet_frames_per_s;
+  nlohmann::ordered_json timings, throughput;
+  for (size_t k = 0; k < 11; ++k) {
+    timings[kSystemNames[k]] = r.systems[k].avg();
+    const SystemThroughput& t = r.throughput[k];
+    throughput[kSystemNames[k]] = {{"calls", t.calls},
+                                   {"time_ms", t.total_ms},
+                                   {"triangles_per_s", t.total_ms > 0 ? t.triangles / (t.total_ms / 1000.0) : 0.0}};
+  }
+  j["timings_ms"] = timings;
+  j["throughput"] = throughput;
+  j["bytes_per_sheet"] = r.bytes_per_sheet;
+  nlohmann::ordered_json hashes = nlohmann::json::array(), outcomes = nlohmann::json::array();
+  for (const SheetOutcome& o : r.outcomes) {
+    hashes.push_back(o.hash);
+    outcomes.push_back({{"index", o.index},
+                        {"fiber_seed", o.fiber_seed},
+                        {"mesh_seed", o.mesh_seed},
+                        {"varied", o.varied},
+                        {"triangles", o.triangles},
+                        {"tear_length", o.tear_length},
+                        {"tears", o.tears},
+                        {"pieces", o.pieces},
+                        {"max_finger_force", o.max_finger_force},
+                        {"frame_ms", o.frame_ms},
+                        {"status", o.status}});
+  }
+  j["hashes"] = hashes;
+  j["outcomes"] = outcomes;
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp);
+    f << j.dump(2) << "\n";
+    if (!f) throw std::runtime_error("cannot write " + path);
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+void write_batch_csv(const BatchResult& r, const std::string& path) {
+  std::ofstream f(path);
+  f << "index,fiber_seed,mesh_seed,triangles,tear_length_m,tears,pieces,max_finger_force_n,frame_ms,hash,status\n";
+  for (const SheetOutcome& o : r.outcomes) {
+    char line[512];
+    std::snprintf(line, sizeof line, "%d,%llu,%llu,%d,%.9g,%d,%d,%.9g,%.6g,%s,\"%s\"\n", o.index,
+                  static_cast<unsigned long long>(o.fiber_seed), static_cast<unsigned long long>(o.mesh_seed),
+                  o.triangles, o.tear_length, o.tears, o.pieces, o.max_finger_force, o.frame_ms, o.hash.c_str(),
+                  o.status.c_str());
+    f << line;
+  }
+}
+
+}  // namespace pt

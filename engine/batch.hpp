@@ -1,0 +1,73 @@
+// Batches of sheets (DESIGN §3, §7 `papertear batch`): N variations of one scenario advanced in parallel,
+// each sheet with its own frame graph; oneTBB's work stealing balances sheets of different cost.
+// Results and hashes do not depend on the thread count: each sheet is deterministic on its own.
+#pragma once
+
+#include "engine/scenario.hpp"
+#include "engine/simulation.hpp"
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace pt {
+
+// --vary KEY=FROM:TO: sheet i of N gets FROM + (TO − FROM) · i / (N − 1).
+struct Variation {
+  std::string key;  // material.<name>, sim.substeps, sim.iterations, detail.sigma, detail.omega, finger_speed
+  double from = 0, to = 0;
+};
+// Parses "KEY=FROM:TO"; throws InputError naming the argument on a bad key or number.
+Variation parse_variation(const std::string& text);
+
+struct BatchOptions {
+  int32_t sheets = 8;
+  int32_t threads = 2;
+  int32_t frames = -1;               // −1: the scenario's
+  std::vector<Variation> vary;
+  int32_t threads_per_sheet = 1;     // each sheet's own arena (nested parallelism for big sheets)
+};
+
+struct SheetOutcome {
+  int32_t index = 0;
+  uint64_t fiber_seed = 0, mesh_seed = 0;
+  std::vector<double> varied;        // values of BatchOptions::vary for this sheet
+  int32_t triangles = 0;
+  double tear_length = 0;            // sum of coarse path lengths, m
+  int32_t tears = 0;
+  int32_t pieces = 1;
+  double max_finger_force = 0;       // N
+  double frame_ms = 0;               // average per frame
+  std::string hash;
+  std::string status = "ok";
+};
+
+struct SystemThroughput {
+  int64_t calls = 0;                 // frames in which the system ran
+  double total_ms = 0;
+  double triangles = 0;              // triangles processed (triangle count × calls)
+};
+
+struct BatchResult {
+  int32_t sheets = 0, threads = 0, frames = 0;
+  double wall_s = 0, sheet_frames_per_s = 0;
+  std::array<TimingStat, 11> systems;           // kSystemNames order, per frame over all sheets
+  std::array<SystemThroughput, 11> throughput;  // kSystemNames order
+  std::vector<SheetOutcome> outcomes;           // in sheet order
+  size_t bytes_per_sheet = 0;                   // average sheet data size (excluding texture), B
+};
+
+// The scenario of sheet `index` (seeds derived from the index, variations applied).
+Scenario batch_sheet_scenario(const Scenario& base, const BatchOptions& options, int32_t index);
+
+// Runs the batch. `progress(done, total)` is called from worker threads after each sheet (may be empty).
+BatchResult run_batch(const Scenario& base, const BatchOptions& options,
+                      const std::function<void(int32_t, int32_t)>& progress = {});
+
+void write_batch_json(const BatchResult& result, const std::string& scenario_name, const std::string& path);
+void write_batch_csv(const BatchResult& result, const std::string& path);
+
+// Heap bytes held by a sheet's arrays (capacity-based), for memory reports.
+size_t sheet_bytes(const Sheet& sheet);
+
+}  // namespace pt
