@@ -1,1 +1,626 @@
-// placeholder: implemented by its issue
+// Scenario files (DESIGN §6): strict loading. Parsing checks shape and types (with the JSON path of
+// every value); validate_scenario checks values and geometry on the struct, so scenarios built in code
+// get the same checks and the same messages.
+#include "engine/scenario.hpp"
+
+#include "systems/meshing.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <initializer_list>
+#include <limits>
+#include <set>
+#include <string_view>
+
+namespace pt {
+namespace {
+
+using json = nlohmann::json;
+
+// Limits that keep a typo (1e12 triangles, 1e9 px textures) from turning into an hour of swapping.
+constexpr int64_t kMinTriangles = 2;
+constexpr int64_t kMaxTriangles = 2'000'000;
+constexpr int64_t kMaxFrames = 10'000'000;
+constexpr int64_t kMaxSubsteps = 10'000;
+constexpr int64_t kMaxIterations = 1'000;
+constexpr int64_t kMaxTexture = 16'384;
+constexpr double kMaxFps = 100'000;
+constexpr double kMaxCoordinate = 1'000;   // m: outline and finger targets
+constexpr double kMaxGravity = 10'000;     // m/s²
+constexpr double kMaxKeyTime = 1e7;        // s
+constexpr int64_t kMaxFileBytes = 64ll << 20;
+constexpr int kMaxDepth = 32;
+
+std::string file_label(const std::string& path) { return path.empty() ? "<scenario>" : path; }
+
+// Messages must stay one line whatever the file holds (binary garbage is echoed by the JSON parser).
+std::string one_line(std::string_view s) {
+  std::string out;
+  out.reserve(s.size());
+  for (const unsigned char c : s) {
+    if (c >= 0x20 && c < 0x7f) {
+      out += static_cast<char>(c);
+    } else if (c == '\n' || c == '\r' || c == '\t') {
+      out += ' ';
+    } else {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    }
+  }
+  return out;
+}
+
+std::string fmt(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+std::string fmt_uv(const Vec2& p) { return "(" + fmt(p.x()) + ", " + fmt(p.y()) + ")"; }
+
+[[noreturn]] void fail(const std::string& file, const std::string& json_path, const std::string& problem) {
+  if (json_path.empty()) throw InputError(one_line(file_label(file) + ": " + problem));
+  throw InputError(one_line(file_label(file) + ": " + json_path + ": " + problem));
+}
+
+std::string child(const std::string& path, const char* key) { return path.empty() ? key : path + "." + key; }
+std::string child(const std::string& path, const std::string& key) { return child(path, key.c_str()); }
+std::string child(const std::string& path, size_t index) { return path + "[" + std::to_string(index) + "]"; }
+
+const char* type_name(const json& j) {
+  if (j.is_boolean()) return "a boolean";
+  if (j.is_number()) return "a number";
+  if (j.is_string()) return "a string";
+  if (j.is_array()) return "an array";
+  if (j.is_object()) return "an object";
+  return "null";
+}
+
+// ---- checks shared by parsing (before narrowing to int32) and validate_scenario ----
+
+void check_int(const std::string& file, const std::string& path, double v, int64_t lo, int64_t hi) {
+  if (v > static_cast<double>(hi))
+    fail(file, path, "absurd size " + fmt(v) + " (at most " + std::to_string(hi) + ")");
+  if (v < static_cast<double>(lo)) fail(file, path, "must be at least " + std::to_string(lo) + ", got " + fmt(v));
+}
+
+void check_finite(const std::string& file, const std::string& path, double v) {
+  if (!std::isfinite(v)) fail(file, path, "expected a finite number");
+}
+
+void check_positive(const std::string& file, const std::string& path, double v) {
+  check_finite(file, path, v);
+  if (!(v > 0)) fail(file, path, "must be positive, got " + fmt(v));
+}
+
+void check_non_negative(const std::string& file, const std::string& path, double v) {
+  check_finite(file, path, v);
+  if (v < 0) fail(file, path, "must not be negative, got " + fmt(v));
+}
+
+// [lo, hi] or [lo, hi) when hi_open.
+void check_range(const std::string& file, const std::string& path, double v, double lo, double hi, bool hi_open) {
+  check_finite(file, path, v);
+  if (v < lo || v > hi || (hi_open && v == hi))
+    fail(file, path, "must be in [" + fmt(lo) + ", " + fmt(hi) + (hi_open ? ")" : "]") + ", got " + fmt(v));
+}
+
+void check_vec(const std::string& file, const std::string& path, const double* v, int n, double max_abs) {
+  for (int i = 0; i < n; ++i) {
+    check_finite(file, child(path, size_t(i)), v[i]);
+    if (std::abs(v[i]) > max_abs)
+      fail(file, child(path, size_t(i)), "absurd coordinate " + fmt(v[i]) + " (at most " + fmt(max_abs) + " m)");
+  }
+}
+
+// ---- typed readers: shape and type, with the JSON path in every message ----
+
+struct Reader {
+  std::string file;
+
+  void expect_object(const json& j, const std::string& path) const {
+    if (!j.is_object()) fail(file, path, std::string("expected an object, got ") + type_name(j));
+  }
+
+  void expect_array(const json& j, const std::string& path) const {
+    if (!j.is_array()) fail(file, path, std::string("expected an array, got ") + type_name(j));
+  }
+
+  void check_keys(const json& j, const std::string& path, std::initializer_list<const char*> allowed) const {
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      bool known = false;
+      for (const char* a : allowed) known = known || it.key() == a;
+      if (known) continue;
+      std::string list;
+      for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+      fail(file, child(path, it.key()), "unknown key (expected one of: " + list + ")");
+    }
+  }
+
+  double number(const json& j, const std::string& path) const {
+    if (!j.is_number()) fail(file, path, std::string("expected a number, got ") + type_name(j));
+    const double v = j.get<double>();
+    check_finite(file, path, v);
+    return v;
+  }
+
+  // Integral numbers only (1e12 is written as a float in JSON, so integral floats are accepted and
+  // then meet the range check, which says "absurd size" rather than "expected an integer").
+  int64_t integer(const json& j, const std::string& path, int64_t lo, int64_t hi) const {
+    if (!j.is_number()) fail(file, path, std::string("expected an integer, got ") + type_name(j));
+    if (j.is_number_unsigned()) {
+      const uint64_t u = j.get<uint64_t>();
+      check_int(file, path, static_cast<double>(u), lo, hi);
+      return static_cast<int64_t>(u);
+    }
+    if (j.is_number_integer()) {
+      const int64_t v = j.get<int64_t>();
+      check_int(file, path, static_cast<double>(v), lo, hi);
+      return v;
+    }
+    const double v = j.get<double>();
+    check_finite(file, path, v);
+    if (v != std::floor(v)) fail(file, path, "expected an integer, got " + fmt(v));
+    check_int(file, path, v, lo, hi);
+    return static_cast<int64_t>(v);
+  }
+
+  uint64_t seed(const json& j, const std::string& path) const {
+    if (j.is_number_unsigned()) return j.get<uint64_t>();
+    return static_cast<uint64_t>(integer(j, path, 0, std::numeric_limits<int64_t>::max()));
+  }
+
+  std::string string(const json& j, const std::string& path) const {
+    if (!j.is_string()) fail(file, path, std::string("expected a string, got ") + type_name(j));
+    return j.get<std::string>();
+  }
+
+  template <int N>
+  Eigen::Matrix<double, N, 1> vec(const json& j, const std::string& path) const {
+    if (!j.is_array() || j.size() != N) {
+      const std::string got = j.is_array() ? "an array of " + std::to_string(j.size()) : type_name(j);
+      fail(file, path, "expected an array of " + std::to_string(N) + " numbers, got " + got);
+    }
+    Eigen::Matrix<double, N, 1> v;
+    for (int i = 0; i < N; ++i) v[i] = number(j[i], child(path, size_t(i)));
+    return v;
+  }
+
+  // A key is [t, value]: exactly two entries.
+  const json& key_pair(const json& j, const std::string& path) const {
+    if (!j.is_array() || j.size() != 2) {
+      const std::string got = j.is_array() ? "an array of " + std::to_string(j.size()) : type_name(j);
+      fail(file, path, "expected a key [t, value], got " + got);
+    }
+    return j;
+  }
+};
+
+// ---- the sections of the file ----
+
+void read_sheet(const Reader& r, const json& j, Scenario& s) {
+  const std::string path = "sheet";
+  r.expect_object(j, path);
+  r.check_keys(j, path, {"outline", "preset", "triangles", "mesh_seed", "mesh_rotation_deg"});
+  const bool has_outline = j.contains("outline");
+  const bool has_preset = j.contains("preset");
+  if (has_outline && has_preset) fail(r.file, path, "give either outline or preset, not both");
+  if (!has_outline && !has_preset) fail(r.file, path, "missing outline (or preset)");
+  if (has_outline) {
+    const std::string p = child(path, "outline");
+    const json& o = j["outline"];
+    r.expect_array(o, p);
+    if (o.size() > 100'000) fail(r.file, p, "absurd size: " + std::to_string(o.size()) + " vertices (at most 100000)");
+    s.outline.clear();
+    s.outline.reserve(o.size());
+    for (size_t i = 0; i < o.size(); ++i) s.outline.push_back(r.vec<2>(o[i], child(p, i)));
+    s.preset.clear();
+  } else {
+    const std::string p = child(path, "preset");
+    s.preset = r.string(j["preset"], p);
+    try {
+      s.outline = preset_outline(s.preset);
+    } catch (const GeometryError& e) {
+      fail(r.file, p, e.what());
+    }
+  }
+  if (j.contains("triangles"))
+    s.triangles = static_cast<int32_t>(r.integer(j["triangles"], child(path, "triangles"), kMinTriangles, kMaxTriangles));
+  if (j.contains("mesh_seed")) s.mesh_seed = r.seed(j["mesh_seed"], child(path, "mesh_seed"));
+  if (j.contains("mesh_rotation_deg"))
+    s.mesh_rotation_deg = r.number(j["mesh_rotation_deg"], child(path, "mesh_rotation_deg"));
+}
+
+void read_material(const Reader& r, const json& j, Material& m) {
+  const std::string path = "material";
+  r.expect_object(j, path);
+  r.check_keys(j, path, {"thickness", "density", "young", "poisson", "bending_scale", "tip_damage", "fiber_seed",
+                         "fracture_c", "speed", "max_step", "damping", "fiber_scale"});
+  const std::pair<const char*, double*> numbers[] = {
+      {"thickness", &m.thickness},   {"density", &m.density},       {"young", &m.young},
+      {"poisson", &m.poisson},       {"bending_scale", &m.bending_scale}, {"tip_damage", &m.tip_damage},
+      {"fracture_c", &m.fracture_c}, {"speed", &m.speed},           {"max_step", &m.max_step},
+      {"damping", &m.damping},       {"fiber_scale", &m.fiber_scale}};
+  for (const auto& [key, dst] : numbers)
+    if (j.contains(key)) *dst = r.number(j[key], child(path, key));
+  if (j.contains("fiber_seed")) m.fiber_seed = r.seed(j["fiber_seed"], child(path, "fiber_seed"));
+}
+
+void read_detail(const Reader& r, const json& j, DetailSettings& d) {
+  const std::string path = "detail";
+  r.expect_object(j, path);
+  r.check_keys(j, path, {"texture", "sigma", "omega"});
+  if (j.contains("texture")) {
+    const std::string p = child(path, "texture");
+    const json& t = j["texture"];
+    if (!t.is_array() || t.size() != 2) {
+      const std::string got = t.is_array() ? "an array of " + std::to_string(t.size()) : type_name(t);
+      fail(r.file, p, "expected an array of 2 integers [width, height], got " + got);
+    }
+    for (size_t i = 0; i < 2; ++i)
+      d.texture[i] = static_cast<int32_t>(r.integer(t[i], child(p, i), 0, kMaxTexture));
+  }
+  if (j.contains("sigma")) d.sigma = r.number(j["sigma"], child(path, "sigma"));
+  if (j.contains("omega")) d.omega = r.number(j["omega"], child(path, "omega"));
+}
+
+void read_sim(const Reader& r, const json& j, SimSettings& sim) {
+  const std::string path = "sim";
+  r.expect_object(j, path);
+  r.check_keys(j, path, {"fps", "substeps", "frames", "gravity", "iterations"});
+  if (j.contains("fps")) sim.fps = r.number(j["fps"], child(path, "fps"));
+  if (j.contains("substeps"))
+    sim.substeps = static_cast<int32_t>(r.integer(j["substeps"], child(path, "substeps"), 1, kMaxSubsteps));
+  if (j.contains("frames"))
+    sim.frames = static_cast<int32_t>(r.integer(j["frames"], child(path, "frames"), 1, kMaxFrames));
+  if (j.contains("gravity")) sim.gravity = r.vec<3>(j["gravity"], child(path, "gravity"));
+  if (j.contains("iterations"))
+    sim.iterations = static_cast<int32_t>(r.integer(j["iterations"], child(path, "iterations"), 1, kMaxIterations));
+}
+
+void read_fingers(const Reader& r, const json& j, std::vector<FingerSpec>& fingers) {
+  const std::string path = "fingers";
+  r.expect_array(j, path);
+  fingers.clear();
+  for (size_t i = 0; i < j.size(); ++i) {
+    const std::string p = child(path, i);
+    const json& f = j[i];
+    r.expect_object(f, p);
+    r.check_keys(f, p, {"name", "at", "keys"});
+    FingerSpec spec;
+    if (!f.contains("name")) fail(r.file, p, "missing name");
+    spec.name = r.string(f["name"], child(p, "name"));
+    if (!f.contains("at")) fail(r.file, p, "missing at (the pattern point [u, v] the finger holds)");
+    spec.at = r.vec<2>(f["at"], child(p, "at"));
+    if (f.contains("keys")) {
+      const std::string kp = child(p, "keys");
+      r.expect_array(f["keys"], kp);
+      for (size_t k = 0; k < f["keys"].size(); ++k) {
+        const std::string kk = child(kp, k);
+        const json& key = r.key_pair(f["keys"][k], kk);
+        FingerKey fk;
+        fk.t = r.number(key[0], child(kk, size_t(0)));
+        fk.position = r.vec<3>(key[1], child(kk, size_t(1)));
+        spec.keys.push_back(fk);
+      }
+    }
+    fingers.push_back(std::move(spec));
+  }
+}
+
+void read_hands(const Reader& r, const json& j, std::vector<HandSpec>& hands) {
+  const std::string path = "hands";
+  r.expect_array(j, path);
+  hands.clear();
+  for (size_t i = 0; i < j.size(); ++i) {
+    const std::string p = child(path, i);
+    const json& h = j[i];
+    r.expect_object(h, p);
+    r.check_keys(h, p, {"name", "fingers", "keys"});
+    HandSpec spec;
+    if (!h.contains("name")) fail(r.file, p, "missing name");
+    spec.name = r.string(h["name"], child(p, "name"));
+    if (!h.contains("fingers")) fail(r.file, p, "missing fingers (names of the fingers the hand moves)");
+    const std::string fp = child(p, "fingers");
+    r.expect_array(h["fingers"], fp);
+    for (size_t k = 0; k < h["fingers"].size(); ++k) spec.fingers.push_back(r.string(h["fingers"][k], child(fp, k)));
+    if (h.contains("keys")) {
+      const std::string kp = child(p, "keys");
+      r.expect_array(h["keys"], kp);
+      for (size_t k = 0; k < h["keys"].size(); ++k) {
+        const std::string kk = child(kp, k);
+        const json& key = r.key_pair(h["keys"][k], kk);
+        HandKey hk;
+        hk.t = r.number(key[0], child(kk, size_t(0)));
+        const std::string mp = child(kk, size_t(1));
+        const json& m = key[1];
+        r.expect_object(m, mp);
+        r.check_keys(m, mp, {"translate", "rotate_deg", "axis"});
+        if (m.contains("translate")) hk.translate = r.vec<3>(m["translate"], child(mp, "translate"));
+        if (m.contains("rotate_deg")) hk.rotate_deg = r.number(m["rotate_deg"], child(mp, "rotate_deg"));
+        if (m.contains("axis")) hk.axis = r.vec<3>(m["axis"], child(mp, "axis"));
+        spec.keys.push_back(hk);
+      }
+    }
+    hands.push_back(std::move(spec));
+  }
+}
+
+// Duplicate keys (which nlohmann silently resolves to the last one) and absurd nesting, found while
+// parsing, with the JSON path of the offending key.
+struct StrictnessError {
+  std::string path, problem;
+};
+
+struct Frame {
+  bool object = false;
+  std::string key;
+  int64_t index = -1;
+  std::set<std::string> keys;
+};
+
+std::string frames_path(const std::vector<Frame>& frames) {
+  std::string p;
+  for (size_t i = 0; i + 1 < frames.size(); ++i) {
+    if (frames[i].object)
+      p = child(p, frames[i].key);
+    else
+      p = child(p, size_t(frames[i].index));
+  }
+  return p;
+}
+
+json parse_json_strict(const std::string& text, const std::string& file) {
+  std::vector<Frame> frames;
+  json::parser_callback_t cb = [&frames](int depth, json::parse_event_t ev, json& parsed) {
+    using E = json::parse_event_t;
+    if (depth > kMaxDepth) throw StrictnessError{"", "nesting deeper than " + std::to_string(kMaxDepth) + " levels"};
+    switch (ev) {
+      case E::object_start:
+      case E::array_start:
+        if (!frames.empty() && !frames.back().object) ++frames.back().index;
+        frames.push_back(Frame{ev == E::object_start, {}, -1, {}});
+        break;
+      case E::key: {
+        Frame& top = frames.back();
+        top.key = parsed.get<std::string>();
+        if (!top.keys.insert(top.key).second) {
+          std::string p = frames_path(frames);
+          throw StrictnessError{child(p, top.key), "duplicate key"};
+        }
+        break;
+      }
+      case E::value:
+        if (!frames.empty() && !frames.back().object) ++frames.back().index;
+        break;
+      case E::object_end:
+      case E::array_end:
+        frames.pop_back();
+        break;
+    }
+    return true;
+  };
+  try {
+    return json::parse(text, cb);
+  } catch (const StrictnessError& e) {
+    fail(file, e.path, e.problem);
+  } catch (const json::parse_error& e) {
+    // nlohmann's text is "[json.exception.parse_error.101] parse error at line L, column C: why"; keep "why".
+    std::string why = e.what();
+    const size_t colon = why.find(": ", why.find("column"));
+    if (colon != std::string::npos) why = why.substr(colon + 2);
+    const size_t at = std::string(e.what()).find("line ");
+    std::string where;
+    if (at != std::string::npos) {
+      const std::string w = e.what();
+      where = " (" + w.substr(at, w.find(':', at) - at) + ")";
+    }
+    fail(file, "", "malformed JSON at byte " + std::to_string(e.byte) + where + ": " + why);
+  } catch (const json::exception& e) {
+    std::string why = e.what();
+    const size_t b = why.find("] ");
+    if (b != std::string::npos) why = why.substr(b + 2);
+    fail(file, "", "malformed JSON: " + why);
+  }
+}
+
+bool is_safe_name(const std::string& name) {
+  if (name.empty() || name == "." || name == ".." || name.size() > 200) return false;
+  for (const unsigned char c : name)
+    if (c < 0x20 || c == 0x7f || c == '/' || c == '\\') return false;
+  return true;
+}
+
+void validate_key_times(const std::string& file, const std::string& keys_path, const std::vector<double>& times) {
+  for (size_t k = 0; k < times.size(); ++k) {
+    const std::string p = child(child(keys_path, k), size_t(0));
+    check_range(file, p, times[k], 0, kMaxKeyTime, false);
+    if (k > 0 && !(times[k] > times[k - 1]))
+      fail(file, p, "key times must increase (" + fmt(times[k]) + " after " + fmt(times[k - 1]) + ")");
+  }
+}
+
+}  // namespace
+
+void validate_scenario(const Scenario& s) {
+  const std::string& file = s.path;
+  // An empty name is fine for scenarios built in code; files always get one (default: the file stem).
+  if (!s.name.empty() && !is_safe_name(s.name))
+    fail(file, "name", "\"" + s.name + "\" cannot name an output directory (empty, '.', '..', '/' or control characters)");
+
+  // Sheet. A scenario built in code may name a preset and leave the outline to the sheet builder.
+  const std::string outline_path = s.preset.empty() ? "sheet.outline" : "sheet.preset";
+  std::vector<Vec2> preset;
+  if (s.outline.empty() && !s.preset.empty()) {
+    try {
+      preset = preset_outline(s.preset);
+    } catch (const GeometryError& e) {
+      fail(file, outline_path, e.what());
+    }
+  }
+  const std::vector<Vec2>& outline = preset.empty() ? s.outline : preset;
+  for (size_t i = 0; i < outline.size(); ++i)
+    check_vec(file, child(outline_path, i), outline[i].data(), 2, kMaxCoordinate);
+  if (const std::string problem = outline_problem(outline); !problem.empty()) fail(file, outline_path, problem);
+  check_int(file, "sheet.triangles", s.triangles, kMinTriangles, kMaxTriangles);
+  check_finite(file, "sheet.mesh_rotation_deg", s.mesh_rotation_deg);
+
+  // Material.
+  const Material& m = s.material;
+  check_positive(file, "material.thickness", m.thickness);
+  check_positive(file, "material.density", m.density);
+  check_positive(file, "material.young", m.young);
+  check_range(file, "material.poisson", m.poisson, 0, 0.5, true);
+  check_non_negative(file, "material.bending_scale", m.bending_scale);
+  check_non_negative(file, "material.damping", m.damping);
+  check_range(file, "material.tip_damage", m.tip_damage, 0, 1, false);
+  check_positive(file, "material.fiber_scale", m.fiber_scale);
+  check_non_negative(file, "material.fracture_c", m.fracture_c);
+  check_non_negative(file, "material.speed", m.speed);
+  check_positive(file, "material.max_step", m.max_step);
+
+  // Detail.
+  const auto& tex = s.detail.texture;
+  for (size_t i = 0; i < 2; ++i) check_int(file, child("detail.texture", i), tex[i], 0, kMaxTexture);
+  if ((tex[0] == 0) != (tex[1] == 0))
+    fail(file, "detail.texture", "give both width and height, or [0, 0] for the default resolution");
+  check_positive(file, "detail.sigma", s.detail.sigma);
+  check_range(file, "detail.omega", s.detail.omega, 0, 1, false);
+
+  // Sim.
+  check_positive(file, "sim.fps", s.sim.fps);
+  if (s.sim.fps > kMaxFps) fail(file, "sim.fps", "absurd size " + fmt(s.sim.fps) + " (at most " + fmt(kMaxFps) + ")");
+  check_int(file, "sim.substeps", s.sim.substeps, 1, kMaxSubsteps);
+  check_int(file, "sim.frames", s.sim.frames, 1, kMaxFrames);
+  check_int(file, "sim.iterations", s.sim.iterations, 1, kMaxIterations);
+  check_vec(file, "sim.gravity", s.sim.gravity.data(), 3, kMaxGravity);
+
+  // Fingers. None is fine in code (a sheet falling freely); files must have some (parse_scenario).
+  for (size_t i = 0; i < s.fingers.size(); ++i) {
+    const FingerSpec& f = s.fingers[i];
+    const std::string p = child("fingers", i);
+    if (f.name.empty()) fail(file, child(p, "name"), "must not be empty");
+    for (size_t k = 0; k < i; ++k)
+      if (s.fingers[k].name == f.name) fail(file, child(p, "name"), "duplicate finger name \"" + f.name + "\"");
+    check_vec(file, child(p, "at"), f.at.data(), 2, kMaxCoordinate);
+    if (!point_in_polygon(outline, f.at, 1e-9))
+      fail(file, child(p, "at"), "finger " + f.name + " at " + fmt_uv(f.at) + " is outside the sheet");
+    for (size_t k = 0; k < i; ++k)
+      if ((s.fingers[k].at - f.at).norm() < 1e-9)
+        fail(file, child(p, "at"), "finger " + f.name + " is at the same point as finger " + s.fingers[k].name);
+    std::vector<double> times;
+    for (size_t k = 0; k < f.keys.size(); ++k) {
+      times.push_back(f.keys[k].t);
+      check_vec(file, child(child(child(p, "keys"), k), size_t(1)), f.keys[k].position.data(), 3, kMaxCoordinate);
+    }
+    validate_key_times(file, child(p, "keys"), times);
+  }
+
+  // Hands.
+  std::vector<int> owner(s.fingers.size(), -1);
+  for (size_t i = 0; i < s.hands.size(); ++i) {
+    const HandSpec& h = s.hands[i];
+    const std::string p = child("hands", i);
+    if (h.name.empty()) fail(file, child(p, "name"), "must not be empty");
+    for (size_t k = 0; k < i; ++k)
+      if (s.hands[k].name == h.name) fail(file, child(p, "name"), "duplicate hand name \"" + h.name + "\"");
+    if (h.fingers.empty()) fail(file, child(p, "fingers"), "a hand needs at least one finger");
+    for (size_t k = 0; k < h.fingers.size(); ++k) {
+      const std::string fp = child(child(p, "fingers"), k);
+      size_t f = 0;
+      while (f < s.fingers.size() && s.fingers[f].name != h.fingers[k]) ++f;
+      if (f == s.fingers.size()) fail(file, fp, "unknown finger \"" + h.fingers[k] + "\"");
+      if (owner[f] == static_cast<int>(i)) fail(file, fp, "finger \"" + h.fingers[k] + "\" listed twice");
+      if (owner[f] >= 0)
+        fail(file, fp, "finger \"" + h.fingers[k] + "\" already belongs to hand \"" + s.hands[owner[f]].name + "\"");
+      owner[f] = static_cast<int>(i);
+    }
+    std::vector<double> times;
+    for (size_t k = 0; k < h.keys.size(); ++k) {
+      const HandKey& key = h.keys[k];
+      const std::string kp = child(child(child(p, "keys"), k), size_t(1));
+      times.push_back(key.t);
+      check_vec(file, child(kp, "translate"), key.translate.data(), 3, kMaxCoordinate);
+      check_finite(file, child(kp, "rotate_deg"), key.rotate_deg);
+      check_vec(file, child(kp, "axis"), key.axis.data(), 3, std::numeric_limits<double>::max());
+      if (!(key.axis.norm() > 1e-12)) fail(file, child(kp, "axis"), "rotation axis must be non-zero");
+    }
+    validate_key_times(file, child(p, "keys"), times);
+  }
+}
+
+Scenario parse_scenario(const std::string& json_text, const std::string& path_for_messages) {
+  const std::string& file = path_for_messages;
+  if (json_text.find_first_not_of(" \t\r\n") == std::string::npos)
+    fail(file, "", "empty file (expected a JSON scenario object)");
+  // A NUL byte never occurs in JSON text: say "binary" rather than echo garbage from the parser.
+  if (const size_t nul = json_text.find('\0'); nul != std::string::npos)
+    fail(file, "", "not a JSON text file (binary data at byte " + std::to_string(nul) + ")");
+
+  const json root = parse_json_strict(json_text, file);
+  if (!root.is_object()) fail(file, "", std::string("expected a JSON object at the top level, got ") + type_name(root));
+
+  const Reader r{file};
+  r.check_keys(root, "", {"name", "description", "version", "sheet", "material", "detail", "sim", "fingers", "hands"});
+
+  Scenario s;
+  s.path = file;
+  if (root.contains("name")) {
+    s.name = r.string(root["name"], "name");
+  } else {
+    s.name = std::filesystem::path(file).stem().string();
+    if (s.name.empty()) s.name = "scenario";
+  }
+  if (root.contains("description")) s.description = r.string(root["description"], "description");
+  if (root.contains("version")) {
+    const int64_t version = r.integer(root["version"], "version", 1, 1'000'000);
+    if (version != 1) fail(file, "version", "unsupported scenario version " + std::to_string(version) + " (this papertear reads version 1)");
+  }
+  if (!root.contains("sheet")) fail(file, "sheet", "missing (an outline or a preset is required)");
+  read_sheet(r, root["sheet"], s);
+  if (root.contains("material")) read_material(r, root["material"], s.material);
+  if (root.contains("detail")) read_detail(r, root["detail"], s.detail);
+  if (root.contains("sim")) read_sim(r, root["sim"], s.sim);
+  if (!root.contains("fingers")) fail(file, "fingers", "missing (at least one finger is required)");
+  read_fingers(r, root["fingers"], s.fingers);
+  if (s.fingers.empty()) fail(file, "fingers", "at least one finger is required");
+  if (root.contains("hands")) read_hands(r, root["hands"], s.hands);
+
+  validate_scenario(s);
+  return s;
+}
+
+Scenario load_scenario(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) fail(path, "", "is a directory, not a scenario file");
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) fail(path, "", std::string("cannot open: ") + std::strerror(errno));
+  std::string text;
+  char buf[1 << 16];
+  bool too_big = false, read_error = false;
+  for (;;) {
+    const size_t n = std::fread(buf, 1, sizeof buf, f);
+    text.append(buf, n);
+    if (static_cast<int64_t>(text.size()) > kMaxFileBytes) {
+      too_big = true;
+      break;
+    }
+    if (n < sizeof buf) {
+      read_error = std::ferror(f) != 0;
+      break;
+    }
+  }
+  const int err = errno;
+  std::fclose(f);
+  if (read_error) fail(path, "", std::string("cannot read: ") + std::strerror(err));
+  if (too_big) fail(path, "", "absurd size: file larger than " + std::to_string(kMaxFileBytes >> 20) + " MiB");
+  return parse_scenario(text, path);
+}
+
+}  // namespace pt

@@ -47,6 +47,7 @@ struct HandSpec {
 struct Scenario {
   std::string name;
   std::string path;             // file it came from ("" when built in code)
+  std::string description;      // free text ("description" key; JSON has no comments)
   std::vector<Vec2> outline;    // counter-clockwise, meters (from "outline" or "preset")
   std::string preset;           // "" when an outline was given
   int32_t triangles = 400;
