@@ -1,0 +1,97 @@
+// Whole frames and every system of the frame, at 100, 1 000 and 10 000 triangles and 1 and 2 threads
+// (issue 2 and issue 6 targets). Per-system times come from the engine's own FrameProfile, reported as
+// counters (ms per frame) next to the wall time of the frame.
+#include "bench_scenes.hpp"
+
+#include "engine/simulation.hpp"
+#include "systems/bending_forces.hpp"
+#include "systems/integrate.hpp"
+#include "systems/membrane_forces.hpp"
+#include "systems/topology.hpp"
+#include "engine/sheet_builder.hpp"
+
+#include <benchmark/benchmark.h>
+
+using namespace pt;
+
+namespace {
+
+// Whole frame: all systems, tearing included. Frames beyond the scenario's motion keep the fingers
+// still, so a long benchmark run measures a steady (torn) state.
+void BM_Frame(benchmark::State& state) {
+  const int32_t triangles = static_cast<int32_t>(state.range(0));
+  const int32_t threads = static_cast<int32_t>(state.range(1));
+  Scenario s = bench::a4_scene(triangles);
+  EngineOptions options;
+  options.threads = threads;
+  Simulation sim(s, options);
+  FrameProfile sum;
+  int64_t frames = 0;
+  for (auto _ : state) {
+    sim.step();
+    const FrameProfile& p = sim.last_profile();
+    sum.forces += p.forces, sum.integrate += p.integrate, sum.regions += p.regions;
+    sum.candidates += p.candidates, sum.clustering += p.clustering, sum.propagation += p.propagation;
+    sum.remeshing += p.remeshing, sum.relaxation += p.relaxation, sum.carving += p.carving;
+    sum.frame += p.frame;
+    ++frames;
+  }
+  const double n = static_cast<double>(frames);
+  state.counters["triangles"] = sim.sheet().tris.size();
+  state.counters["physics_ms"] = sum.physics() / n;
+  state.counters["geometry_ms"] = sum.geometry() / n;
+  state.counters["tearing_ms"] = sum.tearing() / n;
+  state.counters["carving_ms"] = sum.carving / n;
+  state.counters["frame_ms"] = sum.frame / n;
+  state.counters["tears"] = static_cast<double>(sim.sheet().tears.size());
+}
+BENCHMARK(BM_Frame)
+    ->ArgsProduct({{100, 1000, 10000}, {1, 2}})
+    ->ArgNames({"triangles", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(60)
+    ->UseRealTime();
+
+// The force kernel alone: corotated membrane corner forces over all triangles, one core.
+void BM_MembraneForces(benchmark::State& state) {
+  Sheet sheet = build_sheet(bench::a4_scene(static_cast<int32_t>(state.range(0)), false));
+  // A non-trivial deformation so the polar decomposition does real work.
+  for (int32_t i = 0; i < sheet.verts.size(); ++i) {
+    const Vec2 r = sheet.verts.rest[i];
+    sheet.verts.x[i] = Vec3(r.x() * 1.001, r.y(), 0.02 * std::sin(20 * r.x()));
+  }
+  const MembraneParams params = membrane_params(sheet.material);
+  const int32_t nt = sheet.tris.size();
+  for (auto _ : state) {
+    compute_membrane_forces(sheet.verts.x, sheet.tris.tri, sheet.tris.rest_inv, sheet.tris.rest_area, params, 0, nt,
+                            sheet.tris.corner_force);
+    benchmark::DoNotOptimize(sheet.tris.corner_force.data());
+  }
+  state.counters["triangles_per_s"] = benchmark::Counter(static_cast<double>(nt) * state.iterations(),
+                                                         benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_MembraneForces)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+// Physics only: 10 substeps of projective dynamics (one frame), one core.
+void BM_PhysicsFrame(benchmark::State& state) {
+  Scenario s = bench::a4_scene(static_cast<int32_t>(state.range(0)), false);
+  Sheet sheet = build_sheet(s);
+  IntegrateParams params;
+  params.dt = 1.0 / (s.sim.fps * s.sim.substeps);
+  params.iterations = s.sim.iterations;
+  ProjectiveSolverPtr solver;
+  std::vector<int32_t> held;
+  std::vector<Vec3> target;
+  for (const Finger& f : sheet.fingers) {
+    held.push_back(f.vertex);
+    target.push_back(f.start);
+  }
+  prepare_projective_solver(sheet, params, solver);
+  for (auto _ : state) {
+    for (int32_t k = 0; k < s.sim.substeps; ++k) integrate_substep(params, held, target, *solver, sheet);
+  }
+  state.counters["triangles"] = sheet.tris.size();
+}
+BENCHMARK(BM_PhysicsFrame)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
