@@ -1,0 +1,43 @@
+// Hand-built meshes for tests: a regular grid of a rectangle, counter-clockwise, optionally jittered.
+#pragma once
+
+#include "components/sheet.hpp"
+#include "systems/topology.hpp"
+
+#include <random>
+
+namespace pt::test {
+
+// nx × ny cells over [0, w] × [0, h], each cell split along alternating diagonals.
+inline Sheet grid_sheet(double w, double h, int nx, int ny, double jitter = 0, uint32_t seed = 1) {
+  Sheet s;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-0.5, 0.5);
+  s.verts.resize((nx + 1) * (ny + 1));
+  for (int j = 0; j <= ny; ++j)
+    for (int i = 0; i <= nx; ++i) {
+      Vec2 p(w * i / nx, h * j / ny);
+      if (i > 0 && i < nx && j > 0 && j < ny) p += Vec2(u(rng), u(rng)) * jitter * std::min(w / nx, h / ny);
+      const int id = j * (nx + 1) + i;
+      s.verts.rest[id] = p;
+      s.verts.x[id] = Vec3(p.x(), p.y(), 0);
+    }
+  std::vector<Tri> tris;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const int a = j * (nx + 1) + i, b = a + 1, c = a + nx + 2, d = a + nx + 1;
+      if ((i + j) % 2 == 0) {
+        tris.push_back({a, b, c});
+        tris.push_back({a, c, d});
+      } else {
+        tris.push_back({a, b, d});
+        tris.push_back({b, c, d});
+      }
+    }
+  s.tris.resize(static_cast<int32_t>(tris.size()));
+  s.tris.tri = tris;
+  refresh_after_topology_change(s);
+  return s;
+}
+
+}  // namespace pt::test
