@@ -1,1 +1,93 @@
-// placeholder: implemented by its issue
+// Potential tearing points (paper §4.1) and their fracture energy (paper eq. 3, DESIGN §5.2).
+//
+// The list is short (~10 points) and rebuilt after every propagation, so it is a plain linear pass over
+// the vertices; what matters is that the order is deterministic, because the engine treats the
+// candidates sequentially and each propagation changes the forces seen by the next (DESIGN §3).
+#include "systems/candidates.hpp"
+
+#include <algorithm>
+
+namespace pt {
+namespace {
+
+// Why a boundary vertex is a candidate, by priority finger > junction > inward (the engine records the
+// kind of the point a tear starts from). Returns false when it is none of the three.
+bool candidate_kind(uint8_t flags, bool held_by_finger, StartKind& kind) {
+  if ((flags & kFinger) || held_by_finger) {
+    kind = StartKind::Finger;
+    return true;
+  }
+  if (flags & kJunction) {
+    kind = StartKind::Junction;
+    return true;
+  }
+  if (flags & kInward) {
+    kind = StartKind::Inward;
+    return true;
+  }
+  return false;
+}
+
+// Eq. 3: Ef(p) = c · T_fiber(u, v) · d_p with d_p = D at a tear tip and 1 elsewhere.
+double fracture_energy(const Material& material, const FiberField& fiber, const Vec2& uv, bool is_tip) {
+  const double d = is_tip ? material.tip_damage : 1.0;
+  return material.fracture_c * fiber_sample(fiber, uv) * d;
+}
+
+void find_candidates_impl(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
+                          const Material& material, const FiberField& fiber, const std::vector<Tear>* tears,
+                          std::vector<Candidate>& out) {
+  out.clear();
+  const int32_t nv = verts.size();
+  std::vector<char> taken(static_cast<size_t>(nv), 0);
+  std::vector<char> held(static_cast<size_t>(nv), 0);
+  // A finger's vertex counts even if the kFinger flag has not been refreshed yet.
+  for (const Finger& f : fingers)
+    if (f.vertex >= 0 && f.vertex < nv) held[f.vertex] = 1;
+
+  // Active tips first, by tear id: a tear in progress is continued before new tears are considered,
+  // whatever the vertex numbering that remeshing left behind.
+  std::vector<Tip> sorted(tips.begin(), tips.end());
+  std::sort(sorted.begin(), sorted.end(), [](const Tip& a, const Tip& b) {
+    return a.tear != b.tear ? a.tear < b.tear : a.vertex < b.vertex;
+  });
+  for (const Tip& tip : sorted) {
+    if (tip.vertex < 0 || tip.vertex >= nv || taken[tip.vertex]) continue;
+    taken[tip.vertex] = 1;
+    Candidate c;
+    c.vertex = tip.vertex;
+    c.tear = tip.tear;
+    if (tears && tip.tear >= 0 && tip.tear < static_cast<int32_t>(tears->size())) {
+      c.kind = (*tears)[tip.tear].start_kind;
+    } else if (!candidate_kind(verts.flags[tip.vertex], held[tip.vertex], c.kind)) {
+      c.kind = StartKind::Inward;  // every tear tip is an inward-angle point (paper §4.1)
+    }
+    c.fracture_energy = fracture_energy(material, fiber, verts.rest[tip.vertex], true);
+    out.push_back(c);
+  }
+
+  // Then the other boundary points of the three kinds, by ascending vertex id.
+  for (int32_t v = 0; v < nv; ++v) {
+    if (taken[v] || !(verts.flags[v] & kBoundary)) continue;
+    Candidate c;
+    if (!candidate_kind(verts.flags[v], held[v], c.kind)) continue;
+    c.vertex = v;
+    c.fracture_energy = fracture_energy(material, fiber, verts.rest[v], false);
+    out.push_back(c);
+  }
+}
+
+}  // namespace
+
+void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
+                     const Material& material, const FiberField& fiber, std::vector<Candidate>& out) {
+  find_candidates_impl(verts, tips, fingers, material, fiber, nullptr, out);
+}
+
+void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
+                     const std::vector<Tear>& tears, const Material& material, const FiberField& fiber,
+                     std::vector<Candidate>& out) {
+  find_candidates_impl(verts, tips, fingers, material, fiber, &tears, out);
+}
+
+}  // namespace pt

@@ -19,4 +19,12 @@ struct Candidate {
 void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
                      const Material& material, const FiberField& fiber, std::vector<Candidate>& out);
 
+// Same, with the tears known: an active tip's kind is the start kind of its tear. Without them (above) a
+// tip's kind comes from its flags (finger > junction > inward), Inward when it has none of them.
+// Finger vertices are those flagged kFinger or held by one of `fingers`; only boundary vertices
+// (kBoundary) are candidates, except active tips, which are always listed.
+void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
+                     const std::vector<Tear>& tears, const Material& material, const FiberField& fiber,
+                     std::vector<Candidate>& out);
+
 }  // namespace pt

@@ -14,12 +14,18 @@ struct ClusterParams {
 struct ForceClusters {
   Vec3 left = Vec3::Zero(), right = Vec3::Zero();            // F_left, F_right (3D, N)
   Vec2 left_pattern = Vec2::Zero(), right_pattern = Vec2::Zero();  // F̄_left, F̄_right (pattern)
-  Vec3 bisector = Vec3::Zero();                              // final b
+  Vec3 bisector = Vec3::Zero();                              // final b (unit, tangent plane; see below)
   Vec3 normal = Vec3::Zero();                                // n at p
   int32_t left_count = 0, right_count = 0;
   int32_t iterations = 0;
 };
 
+// Conventions: n is the fan's area-weighted normal oriented like the pattern (+z on the flat sheet);
+// f_k is in F_left when f_k · (b × n) > 0, in F_right when < 0 (eq. 4). b starts as the interior
+// bisector of the boundary tangents, pointing into the sheet, and each iteration takes the bisector line
+// of the two clusters, n × normalize(P(F̂_left − F̂_right)) with P the projection on the tangent plane:
+// the line of F̂_left + F̂_right for tangent forces, still defined when the clusters are exactly opposite,
+// and oriented so the clusters keep their labels. `iterations` counts the b_i computed after b0.
 // Forces f_k = corner_force of each triangle around boundary vertex p on p. Needs the boundary
 // neighbours of p (topology) for b0. Returns false when p is not a boundary vertex.
 bool cluster_tip_forces(const Vertices& verts, const Triangles& tris, const Topology& topo, int32_t p,

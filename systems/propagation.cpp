@@ -1,1 +1,85 @@
-// placeholder: implemented by its issue
+// Energy release rate, Griffith's criterion and the next tip (paper §5.2, eqs. 1, 2, 6; DESIGN §5.4).
+//
+// The two clusters act like O'Keefe's two pulling fingers (paper eq. 2): the tear runs along the
+// bisector of their pattern directions, away from them, and releases Er = (‖F_l‖+‖F_r‖) cos(φ/2) / e.
+#include "systems/propagation.hpp"
+
+#include "systems/topology.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace pt {
+namespace {
+
+// Below this, F̂_l + F̂_r (length 2 cos(φ/2)) has no reliable direction: the pulls are opposite in the
+// pattern (φ ≈ π), a flat in-plane pull, which does not tear (DESIGN §5.4) and has Er ≈ 0 anyway.
+constexpr double kOppositeTolerance = 1e-9;
+
+bool finite(const Vec2& v) { return std::isfinite(v.x()) && std::isfinite(v.y()); }
+bool finite(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
+
+// Counter-clockwise angle from a to b in [0, 2π).
+double ccw_angle(const Vec2& a, const Vec2& b) {
+  double angle = std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b));
+  if (angle < 0) angle += 2 * std::numbers::pi;
+  return angle;
+}
+
+}  // namespace
+
+PropagationDecision decide_propagation(const ForceClusters& clusters, const Topology& topo,
+                                       const std::vector<Vec2>& rest, int32_t p, double fracture_energy,
+                                       const PropagationParams& params) {
+  PropagationDecision d;
+  if (p < 0 || p >= static_cast<int32_t>(rest.size()) || p >= static_cast<int32_t>(topo.boundary_next.size()))
+    return d;
+  const Vec2& fl = clusters.left_pattern;
+  const Vec2& fr = clusters.right_pattern;
+  const double nl = fl.norm(), nr = fr.norm();
+  if (!finite(fl) || !finite(fr) || !finite(clusters.left) || !finite(clusters.right) ||
+      !(params.thickness > 0))
+    return d;
+
+  // φ ∈ [0, π]: angle between the pattern pre-images F̄_left and F̄_right.
+  if (nl > 0 && nr > 0) d.angle = std::atan2(std::abs(fl.x() * fr.y() - fl.y() * fr.x()), fl.dot(fr));
+
+  // Eq. 6 with 3D magnitudes: the pre-images carry the geometry (the angle), the 3D forces the load.
+  d.energy_release = (clusters.left.norm() + clusters.right.norm()) * std::cos(0.5 * d.angle) / params.thickness;
+
+  // t = −normalize(F̂̄_l + F̂̄_r): internal forces at p point toward the pulling sides, the tear runs
+  // the other way along their bisector (Fig. 7); with fixed pulling points A and B this is the tangent of
+  // the hyperbola |PA| − |PB| = const (O'Keefe 1994).
+  if (!(nl > 0) || !(nr > 0)) return d;
+  const Vec2 sum = fl / nl + fr / nr;
+  const double sum_norm = sum.norm();
+  if (!(sum_norm > kOppositeTolerance)) return d;
+  d.direction = -sum / sum_norm;
+
+  // Into the material: t strictly between the boundary directions to next and to prev, measured
+  // counter-clockwise from next (the sheet is on the left of prev → p → next), which also covers
+  // reflex interior angles (> π) such as a tear tip.
+  const double interior = interior_pattern_angle(topo, rest, p);
+  if (interior > 0) {
+    const double at = ccw_angle(rest[topo.boundary_next[p]] - rest[p], d.direction);
+    d.into_material = at > params.angle_tolerance && at < interior - params.angle_tolerance;
+  }
+
+  // Griffith (eq. 1): Er ≥ Ef; both virtual fingers must exist.
+  const bool both = clusters.left_count > 0 && clusters.right_count > 0;
+  d.propagate = both && d.into_material && std::isfinite(d.energy_release) &&
+                d.energy_release >= fracture_energy;
+  if (d.propagate) {
+    // p_next = p + k · Er · t (§5.2), capped, and not shorter than min_step (slivers).
+    const double step = std::max(std::min(params.speed * d.energy_release, params.max_step), params.min_step);
+    d.next = rest[p] + step * d.direction;
+    if (!finite(d.next)) {
+      d.propagate = false;
+      d.next = Vec2::Zero();
+    }
+  }
+  return d;
+}
+
+}  // namespace pt

@@ -11,6 +11,7 @@ struct PropagationParams {
   double speed = 2e-7;      // k: p_next = p + k · Er · t
   double max_step = 0.01;   // m
   double min_step = 0;      // m; steps shorter than this are lengthened to it (avoid slivers)
+  double angle_tolerance = 1e-9;  // rad; t within this of a boundary direction at p is not "into" the sheet
 };
 
 struct PropagationDecision {
@@ -23,7 +24,9 @@ struct PropagationDecision {
 };
 
 // Er = (‖F_left‖ + ‖F_right‖) cos(φ/2) / e with φ the angle between the pattern pre-images;
-// t = −normalize(F̄_l/‖F̄_l‖ + F̄_r/‖F̄_r‖).
+// t = −normalize(F̄_l/‖F̄_l‖ + F̄_r/‖F̄_r‖). Er and φ are filled whenever the inputs are finite; t stays
+// zero (no propagation) when a pre-image is zero or when they are opposite (φ ≈ π, flat in-plane pull).
+// `next` is not clipped to the sheet: a segment that leaves it is ended on the boundary by remeshing.
 PropagationDecision decide_propagation(const ForceClusters& clusters, const Topology& topo,
                                        const std::vector<Vec2>& rest, int32_t p, double fracture_energy,
                                        const PropagationParams& params);
