@@ -1,1 +1,368 @@
-// placeholder: implemented by its issue
+// result.json, pattern SVG and per-frame OBJ (DESIGN §7). Output is deterministic: fixed key order
+// (ordered_json), fixed number formats, no timestamps — except the timings themselves.
+#include "engine/result_writer.hpp"
+
+#include "engine/simulation.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdarg>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <stdexcept>
+#include <utility>
+
+namespace pt {
+namespace {
+
+using ojson = nlohmann::ordered_json;
+
+// Numbers go through here so a NaN or inf never reaches a file: it becomes null and the status "error".
+struct Numbers {
+  bool finite = true;
+  ojson operator()(double v) {
+    if (std::isfinite(v)) return v;
+    finite = false;
+    return nullptr;
+  }
+  ojson uv(const Vec2& p) { return ojson::array({(*this)(p.x()), (*this)(p.y())}); }
+  ojson path(const std::vector<Vec2>& points) {
+    ojson a = ojson::array();
+    for (const Vec2& p : points) a.push_back(uv(p));
+    return a;
+  }
+  ojson stat(const TimingStat& s) { return ojson{{"avg", (*this)(s.avg())}, {"max", (*this)(s.max)}}; }
+};
+
+const char* start_kind_name(StartKind k) {
+  switch (k) {
+    case StartKind::Finger: return "finger";
+    case StartKind::Junction: return "junction";
+    case StartKind::Inward: return "inward";
+  }
+  return "inward";
+}
+
+// Pictures and meshes are not results (result.json reports the error), but must not contain "nan" either.
+double finite_or_zero(double v) { return std::isfinite(v) ? v : 0.0; }
+
+struct Box {
+  Vec2 lo = Vec2::Constant(std::numeric_limits<double>::infinity());
+  Vec2 hi = -Vec2::Constant(std::numeric_limits<double>::infinity());
+  void add(const Vec2& p) {
+    if (!p.allFinite()) return;
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  bool valid() const { return lo.x() <= hi.x() && lo.y() <= hi.y(); }
+};
+
+// The texture spans the outline's bounding box (DESIGN §5.6); pattern points stay inside it.
+Box pattern_box(const Simulation& sim) {
+  Box b;
+  for (const Vec2& p : sim.scenario().outline) b.add(p);
+  for (const Vec2& p : sim.sheet().verts.rest) b.add(p);
+  if (!b.valid()) b.lo = b.hi = Vec2::Zero();
+  return b;
+}
+
+void appendf(std::string& out, const char* format, ...) __attribute__((format(printf, 2, 3)));
+void appendf(std::string& out, const char* format, ...) {
+  char buf[256];
+  va_list args;
+  va_start(args, format);
+  const int n = std::vsnprintf(buf, sizeof buf, format, args);
+  va_end(args);
+  if (n > 0) out.append(buf, std::min<size_t>(static_cast<size_t>(n), sizeof buf - 1));
+}
+
+std::string xml_escape(const std::string& s) {
+  std::string out;
+  for (const char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&apos;"; break;
+      default: out += (static_cast<unsigned char>(c) < 0x20) ? '?' : c;
+    }
+  }
+  return out;
+}
+
+// Undirected edges used by one triangle only, in the triangles' (counter-clockwise) direction.
+std::vector<std::pair<int32_t, int32_t>> boundary_edges(const std::vector<Tri>& tris) {
+  std::vector<std::pair<uint64_t, std::pair<int32_t, int32_t>>> edges;
+  edges.reserve(tris.size() * 3);
+  for (const Tri& t : tris)
+    for (int i = 0; i < 3; ++i) {
+      const int32_t a = t[i], b = t[(i + 1) % 3];
+      const uint64_t key = (uint64_t(uint32_t(std::min(a, b))) << 32) | uint32_t(std::max(a, b));
+      edges.push_back({key, {a, b}});
+    }
+  std::sort(edges.begin(), edges.end());
+  std::vector<std::pair<int32_t, int32_t>> out;
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+    if (j - i == 1) out.push_back(edges[i].second);
+    i = j;
+  }
+  return out;
+}
+
+}  // namespace
+
+void write_file_atomically(const std::string& path, const std::string& content) {
+  const std::string tmp = path + ".tmp." + std::to_string(static_cast<long>(::getpid()));
+  std::FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (!f) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
+  const bool written = std::fwrite(content.data(), 1, content.size(), f) == content.size();
+  const int write_errno = errno;
+  const bool closed = std::fclose(f) == 0;
+  if (!written || !closed) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error("cannot write " + path + ": " + std::strerror(write_errno ? write_errno : EIO));
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error("cannot write " + path + ": " + ec.message());
+  }
+}
+
+bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out) {
+  const Sheet& sheet = sim.sheet();
+  const std::vector<FrameStats>& stats = sim.frame_stats();
+  Numbers num;
+
+  // Triangle counts over the frames (the initial mesh when no frame ran).
+  double tri_sum = 0;
+  int32_t tri_max = 0;
+  for (const FrameStats& f : stats) {
+    tri_sum += f.triangles;
+    tri_max = std::max(tri_max, f.triangles);
+  }
+  const double tri_avg = stats.empty() ? sheet.tris.size() : tri_sum / static_cast<double>(stats.size());
+  if (stats.empty()) tri_max = sheet.tris.size();
+
+  // Pieces from the per-triangle piece ids (topology), numbered densely from 0.
+  int32_t piece_count = 0;
+  for (const int32_t p : sheet.tris.piece) piece_count = std::max(piece_count, p + 1);
+  std::vector<int32_t> piece_tris(piece_count, 0);
+  std::vector<double> piece_area(piece_count, 0.0);
+  std::vector<Vec3> piece_centroid(piece_count, Vec3::Zero());
+  for (int32_t t = 0; t < sheet.tris.size(); ++t) {
+    const int32_t p = sheet.tris.piece[t];
+    if (p < 0) continue;
+    const double a = sheet.tris.rest_area[t];
+    const Tri& tri = sheet.tris.tri[t];
+    ++piece_tris[p];
+    piece_area[p] += a;
+    piece_centroid[p] += a * (sheet.verts.x[tri[0]] + sheet.verts.x[tri[1]] + sheet.verts.x[tri[2]]) / 3.0;
+  }
+
+  ojson result;
+  result["scenario"] = sim.scenario().name;
+  result["status"] = "ok";  // replaced below when a number was not finite
+  result["frames"] = sim.frame();
+  result["threads"] = sim.threads();
+  result["mesh"] = ojson{{"vertices", sheet.verts.size()},
+                         {"triangles", sheet.tris.size()},
+                         {"triangles_avg", num(tri_avg)},
+                         {"triangles_max", tri_max},
+                         {"pieces", piece_count}};
+
+  ojson tears = ojson::array();
+  for (const Tear& t : sheet.tears) {
+    tears.push_back(ojson{
+        {"id", t.id},
+        {"parent", t.parent < 0 ? ojson(nullptr) : ojson(t.parent)},
+        {"start", ojson{{"kind", start_kind_name(t.start_kind)}, {"frame", t.start_frame}, {"uv", num.uv(t.start_uv)}}},
+        {"tips", num.path(t.tips)},
+        {"detail", num.path(t.detail)}});
+  }
+  result["tears"] = std::move(tears);
+
+  ojson fingers = ojson::array();
+  for (const Finger& f : sheet.fingers)
+    fingers.push_back(ojson{{"name", f.name}, {"uv", num.uv(f.uv)}, {"max_force", num(f.max_force)}});
+  result["fingers"] = std::move(fingers);
+
+  const TimingReport& tr = sim.timings();
+  result["timings_ms"] = ojson{{"physics", num.stat(tr.physics)},
+                               {"geometry", num.stat(tr.geometry)},
+                               {"tearing", num.stat(tr.tearing)},
+                               {"carving", num.stat(tr.carving)},
+                               {"frame", num.stat(tr.frame)}};
+  result["hash"] = sim.state_hash();
+
+  // Extra keys (DESIGN §7 allows more).
+  ojson systems = ojson::object();
+  for (size_t i = 0; i < kSystemNames.size(); ++i) systems[kSystemNames[i]] = num.stat(tr.systems[i]);
+  result["systems_ms"] = std::move(systems);
+
+  ojson regions{{"frames", stats.size()}};
+  int32_t regions_max = 0, junctions_max = 0, candidates_max = 0;
+  for (const FrameStats& f : stats) {
+    regions_max = std::max(regions_max, f.regions);
+    junctions_max = std::max(junctions_max, f.junctions);
+    candidates_max = std::max(candidates_max, f.candidates);
+  }
+  regions["regions_max"] = regions_max;
+  regions["junctions_max"] = junctions_max;
+  regions["candidates_max"] = candidates_max;
+  if (stats.empty()) {
+    regions["last"] = nullptr;
+  } else {
+    const FrameStats& l = stats.back();
+    regions["last"] = ojson{{"triangles", l.triangles}, {"regions", l.regions}, {"junctions", l.junctions},
+                            {"candidates", l.candidates}};
+  }
+  result["regions_summary"] = std::move(regions);
+
+  ojson pieces = ojson::array();
+  for (int32_t p = 0; p < piece_count; ++p) {
+    const Vec3 c = piece_area[p] > 0 ? Vec3(piece_centroid[p] / piece_area[p]) : Vec3::Zero();
+    pieces.push_back(ojson{{"id", p},
+                           {"triangles", piece_tris[p]},
+                           {"area", num(piece_area[p])},
+                           {"centroid", ojson::array({num(c.x()), num(c.y()), num(c.z())})}});
+  }
+  result["pieces"] = std::move(pieces);
+
+  if (!num.finite) result["status"] = "error";
+  out = std::move(result);
+  return num.finite;
+}
+
+bool write_result_json(const Simulation& sim, const std::string& path) {
+  ojson result;
+  const bool ok = build_result_json(sim, result);
+  write_file_atomically(path, result.dump(2) + "\n");
+  return ok;
+}
+
+void write_svg(const Simulation& sim, const std::string& path) {
+  const Sheet& sheet = sim.sheet();
+  const Box box = pattern_box(sim);
+  const Vec2 size = box.hi - box.lo;
+  const double extent = std::max({size.x(), size.y(), 1e-6}) * 1000.0;  // mm
+  const double margin = 0.08 * extent;
+  const double width = size.x() * 1000.0 + 2 * margin, height = size.y() * 1000.0 + 2 * margin;
+  // Pattern (m) → SVG (mm), v flipped so the sheet is upright.
+  auto X = [&](const Vec2& p) { return finite_or_zero((p.x() - box.lo.x()) * 1000.0 + margin); };
+  auto Y = [&](const Vec2& p) { return finite_or_zero((box.hi.y() - p.y()) * 1000.0 + margin); };
+  const double thin = 0.0012 * extent, line = 0.003 * extent, thick = 0.007 * extent, dot = 0.009 * extent,
+               font = 0.028 * extent;
+
+  std::string s;
+  s.reserve(256 + sheet.tris.size() * 48);
+  appendf(s, "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 %.3f %.3f\" width=\"%.3fmm\" height=\"%.3fmm\">\n",
+          width, height, width, height);
+  s += "<title>papertear: " + xml_escape(sim.scenario().name) + ", frame " + std::to_string(sim.frame()) +
+       "</title>\n";
+  appendf(s, "<rect width=\"%.3f\" height=\"%.3f\" fill=\"white\"/>\n", width, height);
+
+  // Triangles, one path per region kind (small file, one style each).
+  const char* fills[4] = {"#d6efcc", "#e3d3f3", "#fcdfc2", "#f2f2f2"};  // flat, curved+, curved−, no region
+  const char* names[4] = {"flat", "curved-positive", "curved-negative", "unassigned"};
+  std::string paths[4];
+  for (int32_t t = 0; t < sheet.tris.size(); ++t) {
+    const int32_t r = t < static_cast<int32_t>(sheet.tris.region.size()) ? sheet.tris.region[t] : -1;
+    const int kind = (r >= 0 && r < static_cast<int32_t>(sheet.regions.size()))
+                         ? static_cast<int>(sheet.regions[r].kind)
+                         : 3;
+    const Tri& tri = sheet.tris.tri[t];
+    const Vec2 &a = sheet.verts.rest[tri[0]], &b = sheet.verts.rest[tri[1]], &c = sheet.verts.rest[tri[2]];
+    appendf(paths[kind], "M%.3f %.3fL%.3f %.3fL%.3f %.3fZ", X(a), Y(a), X(b), Y(b), X(c), Y(c));
+  }
+  appendf(s, "<g id=\"triangles\" stroke=\"#9a9a9a\" stroke-width=\"%.4f\" stroke-linejoin=\"round\">\n", thin);
+  for (int k = 0; k < 4; ++k)
+    if (!paths[k].empty())
+      s += std::string("<path class=\"") + names[k] + "\" fill=\"" + fills[k] + "\" d=\"" + paths[k] + "\"/>\n";
+  s += "</g>\n";
+
+  std::string boundary;
+  for (const auto& [a, b] : boundary_edges(sheet.tris.tri)) {
+    const Vec2 &p = sheet.verts.rest[a], &q = sheet.verts.rest[b];
+    appendf(boundary, "M%.3f %.3fL%.3f %.3f", X(p), Y(p), X(q), Y(q));
+  }
+  appendf(s, "<path id=\"boundary\" fill=\"none\" stroke=\"black\" stroke-width=\"%.4f\" stroke-linecap=\"round\" d=\"",
+          line);
+  s += boundary + "\"/>\n";
+
+  // Tears: coarse path thick dark red, detail thin red on top.
+  auto polyline = [&](const std::vector<Vec2>& pts, const char* colour, double w) {
+    std::string p;
+    for (const Vec2& q : pts) appendf(p, "%s%.3f,%.3f", p.empty() ? "" : " ", X(q), Y(q));
+    std::string out;
+    appendf(out, "<polyline fill=\"none\" stroke=\"%s\" stroke-width=\"%.4f\" stroke-linejoin=\"round\" stroke-linecap=\"round\" points=\"",
+            colour, w);
+    return out + p + "\"/>\n";
+  };
+  s += "<g id=\"tears\">\n";
+  for (const Tear& t : sheet.tears) {
+    if (t.tips.size() >= 2) s += polyline(t.tips, "#8b0000", thick);
+    if (t.detail.size() >= 2) s += polyline(t.detail, "#ff2020", thin * 1.5);
+  }
+  s += "</g>\n";
+
+  // Candidates: junction points yellow, inward-angle points sky blue.
+  s += "<g id=\"candidates\" stroke=\"black\" stroke-width=\"" + std::to_string(thin) + "\">\n";
+  for (int32_t v = 0; v < sheet.verts.size(); ++v) {
+    const uint8_t f = sheet.verts.flags[v];
+    const Vec2& p = sheet.verts.rest[v];
+    if (f & kJunction) appendf(s, "<circle class=\"junction\" cx=\"%.3f\" cy=\"%.3f\" r=\"%.3f\" fill=\"#ffd700\"/>\n", X(p), Y(p), dot * 0.8);
+    if (f & kInward) appendf(s, "<circle class=\"inward\" cx=\"%.3f\" cy=\"%.3f\" r=\"%.3f\" fill=\"#87ceeb\"/>\n", X(p), Y(p), dot * 0.6);
+  }
+  s += "</g>\n";
+
+  // Active tips: a dark red ring.
+  s += "<g id=\"tips\" fill=\"none\" stroke=\"#8b0000\" stroke-width=\"" + std::to_string(line) + "\">\n";
+  for (const Tip& tip : sheet.tips) {
+    if (tip.vertex < 0 || tip.vertex >= sheet.verts.size()) continue;
+    const Vec2& p = sheet.verts.rest[tip.vertex];
+    appendf(s, "<circle cx=\"%.3f\" cy=\"%.3f\" r=\"%.3f\"/>\n", X(p), Y(p), dot * 1.3);
+  }
+  s += "</g>\n";
+
+  // Fingers: red dots with their names.
+  s += "<g id=\"fingers\" fill=\"#e00000\" font-family=\"sans-serif\" font-size=\"" + std::to_string(font) + "\">\n";
+  for (const Finger& f : sheet.fingers) {
+    appendf(s, "<circle cx=\"%.3f\" cy=\"%.3f\" r=\"%.3f\"/>", X(f.uv), Y(f.uv), dot);
+    appendf(s, "<text x=\"%.3f\" y=\"%.3f\">", X(f.uv) + 1.3 * dot, Y(f.uv) - 1.3 * dot);
+    s += xml_escape(f.name) + "</text>\n";
+  }
+  s += "</g>\n</svg>\n";
+  write_file_atomically(path, s);
+}
+
+void write_obj(const Simulation& sim, const std::string& path) {
+  const Sheet& sheet = sim.sheet();
+  const Box box = pattern_box(sim);
+  const Vec2 size = (box.hi - box.lo).cwiseMax(Vec2::Constant(1e-12));
+  std::string s;
+  s.reserve(64 + sheet.verts.size() * 64 + sheet.tris.size() * 32);
+  s += "# papertear " + sim.scenario().name + " frame " + std::to_string(sim.frame()) + "\n";
+  s += "o sheet\n";
+  for (const Vec3& x : sheet.verts.x)
+    appendf(s, "v %.9g %.9g %.9g\n", finite_or_zero(x.x()), finite_or_zero(x.y()), finite_or_zero(x.z()));
+  for (const Vec2& r : sheet.verts.rest)
+    appendf(s, "vt %.9g %.9g\n", finite_or_zero((r.x() - box.lo.x()) / size.x()),
+            finite_or_zero((r.y() - box.lo.y()) / size.y()));
+  for (const Tri& t : sheet.tris.tri)
+    appendf(s, "f %d/%d %d/%d %d/%d\n", t[0] + 1, t[0] + 1, t[1] + 1, t[1] + 1, t[2] + 1, t[2] + 1);
+  write_file_atomically(path, s);
+}
+
+}  // namespace pt
