@@ -167,6 +167,9 @@ struct Finger {
   Vec3 target = Vec3::Zero();    // prescribed position now
   Vec3 reaction = Vec3::Zero();  // force the finger applies to the sheet now, N
   double max_force = 0;          // max |reaction| so far, N
+  double attach_time = 0;        // s: the finger is put on the sheet then (a vertex is inserted at uv)
+  double release_time = 1e300;   // s: and lets go then
+  bool released = false;
 };
 
 struct Hand {

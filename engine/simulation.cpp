@@ -16,6 +16,7 @@
 #include "systems/regions.hpp"
 #include "systems/remeshing.hpp"
 #include "systems/topology.hpp"
+#include "systems/vertex_insertion.hpp"
 
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/flow_graph.h>
@@ -175,8 +176,33 @@ struct Simulation::Impl {
 
   // --- systems as run by the graph -------------------------------------------------------------------
 
+  // Fingers put on the sheet or let go at this frame's start (attach/release times of the scenario or
+  // of an interactive session).
+  void attach_and_release(double t) {
+    bool changed = false;
+    for (Finger& f : sheet.fingers) {
+      if (!f.released && f.vertex < 0 && f.attach_time <= t) {
+        f.vertex = insert_pattern_vertex(f.uv, InsertParams{}, sheet);
+        if (f.vertex < 0) {
+          f.released = true;  // uv no longer on the sheet (torn away): the finger grabs nothing
+          continue;
+        }
+        f.start = sheet.verts.x[f.vertex];
+        changed = true;
+      }
+      if (f.vertex >= 0 && f.release_time <= t) {
+        f.vertex = -1;
+        f.released = true;
+        f.reaction.setZero();
+        changed = true;
+      }
+    }
+    if (changed) refresh_role_flags();
+  }
+
   void run_fingers() {
     ScopedTimer timer(profile.fingers);
+    attach_and_release(time_at(frame));
     targets_begin.clear();
     for (const Finger& f : sheet.fingers) targets_begin.push_back(f.target);
     update_finger_targets(time_at(frame + 1), sheet.hands, sheet.fingers);
@@ -405,6 +431,39 @@ const std::vector<TearEvent>& Simulation::events() const { return impl_->events;
 const std::vector<Candidate>& Simulation::candidates() const { return impl_->candidates; }
 int32_t Simulation::threads() const { return impl_->options.threads; }
 std::string Simulation::state_hash() const { return hash_sheet(impl_->sheet); }
+int32_t Simulation::attach_finger(const std::string& name, const Vec2& uv) {
+  Impl& m = *impl_;
+  const int32_t v = insert_pattern_vertex(uv, InsertParams{}, m.sheet);
+  if (v < 0) return -1;
+  Finger f;
+  f.name = name;
+  f.uv = m.sheet.verts.rest[v];
+  f.vertex = v;
+  f.attach_time = time();
+  f.start = m.sheet.verts.x[v];
+  f.target = f.start;
+  f.keys.push_back(FingerKey{f.attach_time, f.start});
+  m.sheet.fingers.push_back(f);
+  m.refresh_role_flags();
+  return static_cast<int32_t>(m.sheet.fingers.size()) - 1;
+}
+
+void Simulation::move_finger(int32_t finger, const Vec3& target) {
+  Finger& f = impl_->sheet.fingers.at(finger);
+  const double t = impl_->time_at(impl_->frame + 1);
+  if (!f.keys.empty() && f.keys.back().t >= t) f.keys.back().position = target;
+  else f.keys.push_back(FingerKey{t, target});
+}
+
+void Simulation::release_finger(int32_t finger) {
+  Finger& f = impl_->sheet.fingers.at(finger);
+  f.release_time = time();
+  f.vertex = -1;
+  f.released = true;
+  f.reaction.setZero();
+  impl_->refresh_role_flags();
+}
+
 void Simulation::notify_topology_changed() {
   refresh_after_topology_change(impl_->sheet);
   impl_->refresh_role_flags();

@@ -100,6 +100,15 @@ class Simulation {
 
   void notify_topology_changed();
 
+  // Interactive fingers (viewer, embedding). All take effect between frames and are recorded as the
+  // finger's attach time, keys and release time, so a scenario written from them replays the session.
+  // Puts a finger on the sheet at pattern point uv now (a vertex is inserted there); returns its index,
+  // −1 when uv is outside the sheet.
+  int32_t attach_finger(const std::string& name, const Vec2& uv);
+  // The finger reaches `target` at the end of the next frame (a key at that time).
+  void move_finger(int32_t finger, const Vec3& target);
+  void release_finger(int32_t finger);
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
