@@ -1,1 +1,339 @@
-int main() { return 1; }
+// papertear: the command line (DESIGN §7).
+//   papertear run SCENARIO [--out DIR] [--frames N] [--threads N] [--obj] [--svg] [--png]
+//   papertear check SCENARIO
+//   papertear batch SCENARIO --sheets N [--threads N] [--frames N] [--out DIR] [--vary KEY=FROM:TO]...
+// Exit status: 0 success; 2 invalid input (one line on stderr naming the file and the JSON path or the
+// geometric problem; nothing written); 1 internal failure (one line on stderr; never a crash).
+#include "engine/batch.hpp"
+#include "engine/result_writer.hpp"
+#include "engine/scenario.hpp"
+#include "engine/simulation.hpp"
+#include "systems/meshing.hpp"
+
+#include <CLI/CLI.hpp>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+#include <iostream>
+#include <mutex>
+#include <string>
+#include <system_error>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kExitOk = 0;
+constexpr int kExitInternal = 1;
+constexpr int kExitInput = 2;
+
+// An invalid command line or output location: exit status 2 like bad scenario input.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// Scripts read stderr line by line: every diagnostic is exactly one line.
+void print_error(const std::string& message) {
+  std::string line = "papertear: ";
+  for (const char c : message) line += (c == '\n' || c == '\r') ? ' ' : c;
+  std::fprintf(stderr, "%s\n", line.c_str());
+  std::fflush(stderr);
+}
+
+struct RunOptions {
+  std::string scenario;
+  std::string out;
+  int32_t frames = -1;  // −1: the scenario's
+  int32_t threads = 2;
+  bool obj = false, svg = false, png = false;
+};
+
+struct BatchCli {
+  std::string scenario;
+  std::string out;
+  int32_t sheets = 0;
+  int32_t threads = 2;
+  int32_t frames = -1;
+  std::vector<std::string> vary;
+};
+
+// A progress bar on a terminal only: logs and pipes stay quiet.
+class Progress {
+ public:
+  explicit Progress(int64_t total) : total_(total), enabled_(::isatty(STDERR_FILENO) == 1) {}
+  ~Progress() { finish(); }
+
+  void update(int64_t done) {
+    if (!enabled_) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (done < total_ && now - last_ < std::chrono::milliseconds(100)) return;
+    last_ = now;
+    constexpr int kWidth = 30;
+    const int filled = total_ > 0 ? static_cast<int>(kWidth * done / total_) : kWidth;
+    std::string bar(static_cast<size_t>(filled), '#');
+    bar.append(static_cast<size_t>(kWidth - filled), '.');
+    std::fprintf(stderr, "\r[%s] %lld/%lld", bar.c_str(), static_cast<long long>(done),
+                 static_cast<long long>(total_));
+    std::fflush(stderr);
+    drawn_ = true;
+  }
+
+  void finish() {
+    if (!drawn_) return;
+    std::fprintf(stderr, "\r%*s\r", 60, "");
+    std::fflush(stderr);
+    drawn_ = false;
+  }
+
+ private:
+  int64_t total_;
+  bool enabled_;
+  bool drawn_ = false;
+  std::chrono::steady_clock::time_point last_{};
+};
+
+// The output directory of a run: refused before any work if it is a file; created only once the
+// input is valid; removed again (with partial frames) when the run fails, if this run created it.
+class OutputDir {
+ public:
+  explicit OutputDir(fs::path dir) : dir_(std::move(dir)) {
+    std::error_code ec;
+    if (fs::exists(dir_, ec) && !fs::is_directory(dir_, ec))
+      throw UsageError("--out " + dir_.string() + ": exists and is not a directory");
+  }
+
+  void create() {
+    std::error_code ec;
+    created_ = !fs::exists(dir_, ec);
+    fs::create_directories(dir_, ec);
+    if (ec) throw std::runtime_error("cannot create " + dir_.string() + ": " + ec.message());
+  }
+
+  const fs::path& path() const { return dir_; }
+
+  void commit() { committed_ = true; }
+
+  ~OutputDir() {
+    if (committed_) return;
+    std::error_code ec;
+    if (!partial_frames_.empty()) fs::remove_all(partial_frames_, ec);
+    if (created_ && fs::is_empty(dir_, ec)) fs::remove(dir_, ec);
+  }
+
+  // OBJ frames go to a hidden directory renamed to frames/ at the end, so an interrupted run does not
+  // leave a half sequence that looks complete.
+  fs::path begin_frames() {
+    partial_frames_ = dir_ / (".frames.partial." + std::to_string(static_cast<long>(::getpid())));
+    std::error_code ec;
+    fs::remove_all(partial_frames_, ec);
+    fs::create_directories(partial_frames_, ec);
+    if (ec) throw std::runtime_error("cannot create " + partial_frames_.string() + ": " + ec.message());
+    return partial_frames_;
+  }
+
+  void end_frames() {
+    const fs::path frames = dir_ / "frames";
+    std::error_code ec;
+    fs::remove_all(frames, ec);
+    fs::rename(partial_frames_, frames, ec);
+    if (ec) throw std::runtime_error("cannot rename " + partial_frames_.string() + ": " + ec.message());
+    partial_frames_.clear();
+  }
+
+ private:
+  fs::path dir_;
+  fs::path partial_frames_;
+  bool created_ = false;
+  bool committed_ = false;
+};
+
+std::string plural(int64_t n, const char* word) {
+  return std::to_string(n) + " " + word + (n == 1 ? "" : "s");
+}
+
+int run_command(const RunOptions& opt) {
+  pt::Scenario scenario = pt::load_scenario(opt.scenario);
+  if (opt.frames >= 0) scenario.sim.frames = opt.frames;
+  if (opt.png) throw UsageError("--png: texture export is not available yet");
+  OutputDir out(opt.out.empty() ? fs::path("out") / scenario.name : fs::path(opt.out));
+
+  pt::EngineOptions engine;
+  engine.threads = opt.threads;
+  pt::Simulation sim(scenario, engine);  // meshing problems surface here, before anything is written
+
+  out.create();
+  // A result left by an earlier run must not pass for this run's if this one fails.
+  std::error_code ec;
+  const fs::path result_path = out.path() / "result.json";
+  fs::remove(result_path, ec);
+
+  fs::path frames_dir;
+  if (opt.obj) frames_dir = out.begin_frames();
+  {
+    Progress progress(scenario.sim.frames);
+    for (int32_t f = 0; f < scenario.sim.frames; ++f) {
+      sim.step();
+      if (opt.obj) {
+        char name[32];
+        std::snprintf(name, sizeof name, "frame_%04d.obj", sim.frame());
+        pt::write_obj(sim, (frames_dir / name).string());
+      }
+      progress.update(f + 1);
+    }
+  }
+  sim.flush();
+
+  std::vector<std::string> written;
+  if (opt.svg) {
+    const fs::path svg = out.path() / "pattern.svg";
+    pt::write_svg(sim, svg.string());
+    written.push_back(svg.string());
+  }
+  if (opt.obj) {
+    out.end_frames();
+    written.push_back((out.path() / "frames").string() + "/ (" + plural(sim.frame(), "OBJ frame") + ")");
+  }
+  // result.json last: its presence means the run completed.
+  const bool finite = pt::write_result_json(sim, result_path.string());
+  written.insert(written.begin(), result_path.string());
+  out.commit();
+
+  const pt::Sheet& sheet = sim.sheet();
+  std::printf("%s: %s, %s, %s, %s, %.3f ms/frame (%s)\n", scenario.name.c_str(), plural(sim.frame(), "frame").c_str(),
+              plural(sheet.tris.size(), "triangle").c_str(), plural(static_cast<int64_t>(sheet.tears.size()), "tear").c_str(),
+              plural(sheet.topo.piece_count, "piece").c_str(), sim.timings().frame.avg(),
+              plural(sim.threads(), "thread").c_str());
+  for (const std::string& w : written) std::printf("wrote %s\n", w.c_str());
+  std::fflush(stdout);
+  if (!finite) {
+    print_error(result_path.string() + ": non-finite numbers in the simulation state (status \"error\")");
+    return kExitInternal;
+  }
+  return kExitOk;
+}
+
+int check_command(const std::string& path) {
+  const pt::Scenario s = pt::load_scenario(path);
+  std::printf("%s: ok: \"%s\", %s, %s, %d triangles, %d frames at %g fps\n", path.c_str(), s.name.c_str(),
+              plural(static_cast<int64_t>(s.fingers.size()), "finger").c_str(),
+              plural(static_cast<int64_t>(s.hands.size()), "hand").c_str(), s.triangles, s.sim.frames, s.sim.fps);
+  return kExitOk;
+}
+
+int batch_command(const BatchCli& cli) {
+  const pt::Scenario base = pt::load_scenario(cli.scenario);
+  pt::BatchOptions options;
+  options.sheets = cli.sheets;
+  options.threads = cli.threads;
+  options.frames = cli.frames;
+  for (const std::string& v : cli.vary) options.vary.push_back(pt::parse_variation(v));
+  // Every sheet's variation is checked before any runs, so a bad --vary range fails fast with exit 2.
+  for (int32_t i = 0; i < options.sheets; ++i) {
+    try {
+      pt::validate_scenario(pt::batch_sheet_scenario(base, options, i));
+    } catch (const pt::InputError& e) {
+      throw pt::InputError(std::string(e.what()) + " (batch sheet " + std::to_string(i) + ")");
+    }
+  }
+  OutputDir out(cli.out.empty() ? fs::path("out") / (base.name + "-batch") : fs::path(cli.out));
+
+  pt::BatchResult result;
+  {
+    Progress progress(options.sheets);
+    std::mutex mutex;
+    result = pt::run_batch(base, options, [&](int32_t done, int32_t) {
+      const std::lock_guard<std::mutex> lock(mutex);
+      progress.update(done);
+    });
+  }
+  out.create();
+  const fs::path json_path = out.path() / "batch.json", csv_path = out.path() / "batch.csv";
+  pt::write_batch_csv(result, csv_path.string());
+  pt::write_batch_json(result, base.name, json_path.string());
+  out.commit();
+
+  int failed = 0;
+  for (const pt::SheetOutcome& o : result.outcomes) failed += o.status != "ok";
+  std::printf("%s: %s x %s on %s in %.3f s, %.1f sheet-frames/s, %d failed\n", base.name.c_str(),
+              plural(result.sheets, "sheet").c_str(), plural(result.frames, "frame").c_str(),
+              plural(result.threads, "thread").c_str(), result.wall_s, result.sheet_frames_per_s, failed);
+  std::printf("wrote %s\nwrote %s\n", json_path.string().c_str(), csv_path.string().c_str());
+  std::fflush(stdout);
+  for (const pt::SheetOutcome& o : result.outcomes)
+    if (o.status != "ok") {
+      print_error("batch sheet " + std::to_string(o.index) + ": " + o.status);
+      return kExitInternal;
+    }
+  return kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"papertear: paper torn by fingers (Schreck et al., Interactive paper tearing, EG 2017)"};
+  app.set_version_flag("--version", "papertear 0.1.0");
+  app.require_subcommand(1);
+
+  RunOptions run;
+  CLI::App* run_cmd = app.add_subcommand("run", "simulate a scenario and write DIR/result.json");
+  run_cmd->add_option("SCENARIO", run.scenario, "scenario file (JSON)")->required();
+  run_cmd->add_option("--out", run.out, "output directory (default: out/<name>)");
+  run_cmd->add_option("--frames", run.frames, "frames to simulate (default: the scenario's)")
+      ->check(CLI::Range(1, 10'000'000));
+  run_cmd->add_option("--threads", run.threads, "worker threads (default: 2)")->check(CLI::Range(1, 1024));
+  run_cmd->add_flag("--obj", run.obj, "write DIR/frames/frame_NNNN.obj for every frame");
+  run_cmd->add_flag("--svg", run.svg, "write DIR/pattern.svg (mesh, regions, candidates, fingers, tears)");
+  run_cmd->add_flag("--png", run.png, "write the carved texture as PNG");
+
+  std::string check_path;
+  CLI::App* check_cmd = app.add_subcommand("check", "validate a scenario only");
+  check_cmd->add_option("SCENARIO", check_path, "scenario file (JSON)")->required();
+
+  BatchCli batch;
+  CLI::App* batch_cmd = app.add_subcommand("batch", "simulate N variations of a scenario in parallel");
+  batch_cmd->add_option("SCENARIO", batch.scenario, "scenario file (JSON)")->required();
+  batch_cmd->add_option("--sheets", batch.sheets, "number of sheets")->required()->check(CLI::Range(1, 1'000'000));
+  batch_cmd->add_option("--threads", batch.threads, "worker threads (default: 2)")->check(CLI::Range(1, 1024));
+  batch_cmd->add_option("--frames", batch.frames, "frames per sheet (default: the scenario's)")
+      ->check(CLI::Range(1, 10'000'000));
+  batch_cmd->add_option("--out", batch.out, "output directory (default: out/<name>-batch)");
+  batch_cmd->add_option("--vary", batch.vary, "KEY=FROM:TO, spread linearly over the sheets (repeatable)");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {  // --help, --version
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    print_error(e.what());
+    return kExitInput;
+  }
+
+  try {
+    if (*run_cmd) return run_command(run);
+    if (*check_cmd) return check_command(check_path);
+    if (*batch_cmd) return batch_command(batch);
+    print_error("no command (run, check or batch)");
+    return kExitInput;
+  } catch (const pt::InputError& e) {
+    print_error(e.what());
+    return kExitInput;
+  } catch (const pt::GeometryError& e) {
+    // Geometry messages name the problem; the file is ours to add.
+    const std::string& file = *run_cmd ? run.scenario : *check_cmd ? check_path : batch.scenario;
+    print_error(file + ": " + e.what());
+    return kExitInput;
+  } catch (const UsageError& e) {
+    print_error(e.what());
+    return kExitInput;
+  } catch (const std::exception& e) {
+    print_error(std::string("internal error: ") + e.what());
+    return kExitInternal;
+  } catch (...) {
+    print_error("internal error: unknown exception");
+    return kExitInternal;
+  }
+}
