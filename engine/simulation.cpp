@@ -112,6 +112,8 @@ struct Simulation::Impl {
   std::vector<FrameStats> stats;
   std::vector<TearEvent> events;
   RegionSummary region_summary;
+  std::vector<std::string> violations;
+  int32_t remeshes = 0;
 
   tbb::task_arena arena;
   tbb::flow::graph graph;
@@ -312,8 +314,15 @@ struct Simulation::Impl {
         }
         const int32_t parent = new_tear ? sheet.verts.tear[c.vertex] : -1;
         const int32_t pieces_before = sheet.topo.piece_count;
+        const double area_before = options.check_invariants ? total_rest_area(sheet.tris) : -1.0;
         cut = cut_tear_segment(c.vertex, decision.next, previous, tear_id, remesh_params, sheet);
         if (!cut.cut) continue;
+        ++remeshes;
+        if (options.check_invariants) {
+          const std::string problem = check_mesh_invariants(sheet, area_before);
+          if (!problem.empty())
+            violations.push_back("frame " + std::to_string(frame) + ", tear " + std::to_string(tear_id) + ": " + problem);
+        }
         if (new_tear) {
           Tear t;
           t.id = tear_id;
@@ -428,6 +437,8 @@ const FrameProfile& Simulation::last_profile() const { return impl_->profile; }
 const TimingReport& Simulation::timings() const { return impl_->timings; }
 const std::vector<FrameStats>& Simulation::frame_stats() const { return impl_->stats; }
 const std::vector<TearEvent>& Simulation::events() const { return impl_->events; }
+const std::vector<std::string>& Simulation::invariant_violations() const { return impl_->violations; }
+int32_t Simulation::remesh_count() const { return impl_->remeshes; }
 const std::vector<Candidate>& Simulation::candidates() const { return impl_->candidates; }
 int32_t Simulation::threads() const { return impl_->options.threads; }
 std::string Simulation::state_hash() const { return hash_sheet(impl_->sheet); }

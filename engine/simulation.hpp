@@ -59,6 +59,7 @@ struct FrameStats {
 struct EngineOptions {
   int32_t threads = 2;           // task arena concurrency
   int32_t parallel_grain = 512;  // triangles per task; smaller sheets run their kernels serially
+  bool check_invariants = false; // run check_mesh_invariants after every remesh (tests, soaks)
 };
 
 struct TearEvent {
@@ -93,6 +94,9 @@ class Simulation {
   const TimingReport& timings() const;
   const std::vector<FrameStats>& frame_stats() const;
   const std::vector<TearEvent>& events() const;  // all events so far
+  // With EngineOptions::check_invariants: one line per remesh that broke a DESIGN §5.5 invariant.
+  const std::vector<std::string>& invariant_violations() const;
+  int32_t remesh_count() const;
   int32_t threads() const;
 
   // Hex digest (FNV-1a 64 over the bit patterns of x, v, rest, triangles, tears) of the current state.
