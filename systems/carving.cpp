@@ -91,9 +91,9 @@ class LabelWriter {
 // so each line across that axis ("column") meets the path in one contiguous run [lo, hi]. Pixels past
 // either end of the run are on one side of the whole path: this is exactly the partition a 4-connected
 // flood fill would find with the 8-connected path as the barrier, at O(band) cost and with no distance
-// computations. The band is R pixels each side, R covering the path's largest offset from the coarse
-// segment (so every pixel between the coarse edge and the detailed edge is labelled) plus 2 pixels, and
-// at least 2σ: this is also the support strip width the triangles along the tear need (§6.2, Fig. 11).
+// computations. In each column the band reaches the support strip's edge on both sides of the coarse
+// segment (so every pixel a strip of support_strip_width can draw carries its side, §6.2 / Fig. 11),
+// and at least 2 pixels past the path where it wanders beyond the strip.
 void label_band(const DetailParams& params, const Vec2& a, const Vec2& b, const std::vector<Pixel>& path,
                 int32_t tear, CarveState& state) {
   LabelWriter w(params, state);
@@ -114,8 +114,10 @@ void label_band(const DetailParams& params, const Vec2& a, const Vec2& b, const 
   const double slope = std::abs(span) > 1e-9 ? (ub[perp] - ua[perp]) / span : 0.0;
   double dev = 0;
   for (const Pixel& p : path) dev = std::max(dev, std::abs(p[perp] - (ua[perp] + (p[dom] - ua[dom]) * slope)));
-  const int32_t R = static_cast<int32_t>(std::ceil(std::max(dev, 2.0 * params.sigma / params.pixel_size))) + 2;
-  state.band_px = std::max(state.band_px, R);
+  state.band_px = std::max(state.band_px, static_cast<int32_t>(std::ceil(dev)));
+  // A perpendicular distance w from the segment is w·sqrt(1 + slope²) along the column (≤ w·√2, as the
+  // axis is dominant); one more pixel for the rounding of the strip's edge.
+  const double reach = support_strip_width(params) / params.pixel_size * std::sqrt(1.0 + slope * slope) + 1.0;
 
   // Left normal of the direction (sx, sy) is (−sy, sx): for an x-dominant path moving +x, +y is left;
   // for a y-dominant path moving +y, +x is right.
@@ -137,8 +139,11 @@ void label_band(const DetailParams& params, const Vec2& a, const Vec2& b, const 
       w.path(path[k][0], path[k][1]);
     }
     if (!labelled) continue;
-    for (int32_t q = lo - R; q < lo; ++q) put(u, q, minus);
-    for (int32_t q = hi + 1; q <= hi + R; ++q) put(u, q, plus);
+    const double c = ua[perp] + (u - ua[dom]) * slope;
+    const int32_t from = std::min(lo - 2, static_cast<int32_t>(std::floor(c - reach)));
+    const int32_t to = std::max(hi + 2, static_cast<int32_t>(std::ceil(c + reach)));
+    for (int32_t q = from; q < lo; ++q) put(u, q, minus);
+    for (int32_t q = hi + 1; q <= to; ++q) put(u, q, plus);
   }
 }
 
@@ -296,8 +301,10 @@ void assign_triangle_sides(const std::vector<Vec2>& rest, const std::vector<int3
   }
 }
 
-double support_strip_width(const DetailParams& params, const CarveState& state) {
-  return (state.band_px + 1) * params.pixel_size;
+double support_strip_width(const DetailParams& params) {
+  // The detail path stays within 4σ + 2 pixels of its coarse segment at the default ω (tested), so a strip
+  // this wide shows all of it; the band labels cover the strip (label_band).
+  return 4.0 * params.sigma + 2.0 * params.pixel_size;
 }
 
 int64_t bytes_used(const CarveState& state) {

@@ -65,7 +65,7 @@ struct CarveState {
   std::vector<uint32_t> tile_keys;   // (ty << 16) | tx, ascending
   std::vector<int32_t> tile_slot;    // tile_keys[k] lives in tiles[tile_slot[k]]
   std::vector<std::unique_ptr<LabelTile>> tiles;  // stable addresses (a writer caches one)
-  int32_t band_px = 0;               // widest labelled half-band so far (support strip width), pixels
+  int32_t band_px = 0;               // largest offset of a detail path from its coarse segment, pixels
   int64_t carved_segments = 0;       // statistics
   int64_t path_pixels = 0;
   // Scratch reused between calls (no allocation per segment once warm).
@@ -111,9 +111,10 @@ void assign_triangle_sides(const std::vector<Vec2>& rest, const std::vector<int3
                            const std::vector<Tri>& tri, const std::vector<Tear>& tears,
                            std::vector<int32_t>& side);
 
-// Width of the support strip (§6.2, Fig. 11) that triangles along a tear need so details beyond the
-// coarse edge are drawn, meters.
-double support_strip_width(const DetailParams& params, const CarveState& state);
+// Width of the support strip (§6.2, Fig. 11) by which triangles along a tear are extended across their
+// coarse edge so details beyond it are drawn, meters (4σ + 2 pixels). Every pixel such a strip covers
+// along a carved segment carries a side label.
+double support_strip_width(const DetailParams& params);
 
 // Heap bytes held by the label map (for memory reports).
 int64_t bytes_used(const CarveState& state);
