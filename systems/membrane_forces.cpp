@@ -1,1 +1,179 @@
-// placeholder: implemented by its issue
+// Corotated linear constant-strain triangles (DESIGN §4). See membrane_forces.hpp for the energy.
+//
+// Why this formulation: for the corotated energy W(F) = e·A·(μ‖F − R‖² + λ/2 tr(RᵀF − I)²) with R the polar
+// factor of F, the first Piola stress has the closed form P = e·A·(2μ(F − R) + λ tr(RᵀF − I) R): the terms
+// in dR vanish because RᵀdR is skew and RᵀF = S is symmetric (McAdams et al. 2011, "Efficient elasticity for
+// character skinning with contact and collisions", §4; the same identity holds for a 3x2 F since
+// tr(RᵀF) = σ₁ + σ₂ and ∂(σ₁ + σ₂)/∂F = U Vᵀ = R).
+//
+// Polar factor of a 3x2 F: with C = FᵀF (2x2, SPD when F has full rank), S = √C and R = F S⁻¹. The 2x2
+// square root has a closed form (Cayley–Hamilton): √C = (C + √det C · I) / √(tr C + 2 √det C), and
+// √(tr C + 2 √det C) = σ₁ + σ₂ = tr S. So the fast path needs two square roots and one division.
+#include "systems/membrane_forces.hpp"
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+
+namespace pt {
+
+namespace {
+
+using Mat32 = Eigen::Matrix<double, 3, 2>;
+
+// Below this ratio det C / (tr C)² ≈ (σ₂/σ₁)² the closed form loses accuracy (R = F S⁻¹ divides by σ₁σ₂);
+// the eigenvector fallback is used instead. 1e-10 ⇔ σ₂/σ₁ ≈ 1e-5.
+constexpr double kDegenerateRatio = 1e-10;
+
+// Polar factor of a (nearly) rank-deficient F from the eigenvectors of C: R = u₁v₁ᵀ + u₂v₂ᵀ. Continuous with
+// the fast path while F has numerically full rank (u₂ = normalised F v₂ with its u₁ part removed); when F v₂
+// vanishes u₂ is chosen perpendicular to u₁, preferably in the plane z = const (the sheet starts flat in
+// z = 0, so a collapsed triangle of a flat sheet keeps a rotation in that plane). Never NaN.
+Mat32 polar_rotation_degenerate(const Mat32& F) {
+  const double p = F.col(0).squaredNorm(), q = F.col(0).dot(F.col(1)), r = F.col(1).squaredNorm();
+  const double scale = p + r;
+  Mat32 R;
+  if (!(scale > 1e-300)) {  // F ≈ 0 (triangle collapsed to a point) or not finite: the rest frame.
+    R << 1, 0, 0, 1, 0, 0;
+    return R;
+  }
+  // Largest eigenvalue of C and its eigenvector (the better conditioned of the two formulas).
+  const double half_diff = 0.5 * (p - r);
+  const double l1 = 0.5 * (p + r) + std::sqrt(half_diff * half_diff + q * q);
+  Vec2 v1 = p >= r ? Vec2(l1 - r, q) : Vec2(q, l1 - p);
+  const double v1n = v1.norm();
+  v1 = v1n > 0 ? Vec2(v1 / v1n) : Vec2(1, 0);
+  const Vec2 v2(-v1.y(), v1.x());
+  Vec3 u1 = F * v1;
+  u1 /= u1.norm();  // ‖F v₁‖ = σ₁ > 0 since scale > 0
+  Vec3 w = F * v2;
+  w -= u1.dot(w) * u1;
+  const double wn = w.norm();
+  Vec3 u2;
+  if (wn > 1e-14 * std::sqrt(l1)) {
+    u2 = w / wn;
+  } else {
+    Vec3 c = Vec3::UnitZ().cross(u1);  // in-plane perpendicular for a flat sheet
+    if (c.squaredNorm() < 1e-6) c = Vec3::UnitX().cross(u1);
+    u2 = c.normalized();
+  }
+  R = u1 * v1.transpose() + u2 * v2.transpose();
+  return R;
+}
+
+}  // namespace
+
+MembraneParams membrane_params(const Material& m) {
+  MembraneParams p;
+  p.mu = m.young / (2 * (1 + m.poisson));
+  const double lambda0 = m.young * m.poisson / ((1 + m.poisson) * (1 - 2 * m.poisson));
+  // Plane stress: eliminating σ_zz = 0 gives λ = 2μλ₀/(λ₀ + 2μ) = Eν/(1 − ν²).
+  p.lambda = 2 * p.mu * lambda0 / (lambda0 + 2 * p.mu);
+  p.thickness = m.thickness;
+  return p;
+}
+
+Eigen::Matrix<double, 3, 2> deformation_gradient(const std::vector<Vec3>& x, const Tri& tri, const Mat2& rest_inv) {
+  Mat32 Ds;
+  Ds.col(0) = x[tri[1]] - x[tri[0]];
+  Ds.col(1) = x[tri[2]] - x[tri[0]];
+  return Ds * rest_inv;
+}
+
+Eigen::Matrix<double, 3, 2> polar_rotation(const Eigen::Matrix<double, 3, 2>& F) {
+  const double p = F.col(0).squaredNorm(), q = F.col(0).dot(F.col(1)), r = F.col(1).squaredNorm();
+  const double trC = p + r, detC = p * r - q * q;
+  if (!(detC > kDegenerateRatio * trC * trC)) return polar_rotation_degenerate(F);
+  const double s = std::sqrt(detC);         // σ₁σ₂ = det S
+  const double t = std::sqrt(trC + 2 * s);  // σ₁ + σ₂ = tr S
+  const double k = 1.0 / (t * s);
+  // S⁻¹ = adj(C + sI) / (t s)
+  Mat32 R;
+  R.col(0) = ((r + s) * k) * F.col(0) - (q * k) * F.col(1);
+  R.col(1) = ((p + s) * k) * F.col(1) - (q * k) * F.col(0);
+  return R;
+}
+
+// The kernel: plain scalar code on the three columns so the compiler keeps everything in registers
+// (no Eigen temporaries, no allocation). ~40 multiplies, two sqrt, one division per triangle.
+void compute_membrane_forces(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
+                             const std::vector<Mat2>& rest_inv, const std::vector<double>& rest_area,
+                             const MembraneParams& params, int32_t begin, int32_t end,
+                             std::vector<std::array<Vec3, 3>>& corner_force) {
+  const double two_mu = 2 * params.mu, lambda = params.lambda, e = params.thickness;
+  for (int32_t t = begin; t < end; ++t) {
+    const Tri& c = tri[t];
+    const double* x0 = x[c[0]].data();
+    const double* x1 = x[c[1]].data();
+    const double* x2 = x[c[2]].data();
+    const double d1x = x1[0] - x0[0], d1y = x1[1] - x0[1], d1z = x1[2] - x0[2];
+    const double d2x = x2[0] - x0[0], d2y = x2[1] - x0[1], d2z = x2[2] - x0[2];
+    const Mat2& B = rest_inv[t];
+    const double b00 = B(0, 0), b01 = B(0, 1), b10 = B(1, 0), b11 = B(1, 1);
+    // F = Ds · B, columns a and b.
+    const double ax = d1x * b00 + d2x * b10, ay = d1y * b00 + d2y * b10, az = d1z * b00 + d2z * b10;
+    const double bx = d1x * b01 + d2x * b11, by = d1y * b01 + d2y * b11, bz = d1z * b01 + d2z * b11;
+    const double p = ax * ax + ay * ay + az * az;
+    const double q = ax * bx + ay * by + az * bz;
+    const double r = bx * bx + by * by + bz * bz;
+    const double trC = p + r, detC = p * r - q * q;
+    double rax, ray, raz, rbx, rby, rbz, trS;
+    if (detC > kDegenerateRatio * trC * trC) {
+      const double s = std::sqrt(detC);
+      trS = std::sqrt(trC + 2 * s);
+      const double k = 1.0 / (trS * s);
+      const double c00 = (r + s) * k, c11 = (p + s) * k, c01 = q * k;
+      rax = c00 * ax - c01 * bx; ray = c00 * ay - c01 * by; raz = c00 * az - c01 * bz;
+      rbx = c11 * bx - c01 * ax; rby = c11 * by - c01 * ay; rbz = c11 * bz - c01 * az;
+    } else {
+      Mat32 F;
+      F << ax, bx, ay, by, az, bz;
+      const Mat32 R = polar_rotation_degenerate(F);
+      rax = R(0, 0); ray = R(1, 0); raz = R(2, 0);
+      rbx = R(0, 1); rby = R(1, 1); rbz = R(2, 1);
+      trS = rax * ax + ray * ay + raz * az + rbx * bx + rby * by + rbz * bz;
+    }
+    // P = e A (2μ (F − R) + λ (tr S − 2) R)
+    const double eA = e * rest_area[t];
+    const double m = eA * two_mu, l = eA * lambda * (trS - 2) - m;
+    const double pax = m * ax + l * rax, pay = m * ay + l * ray, paz = m * az + l * raz;
+    const double pbx = m * bx + l * rbx, pby = m * by + l * rby, pbz = m * bz + l * rbz;
+    // H = −P Bᵀ: forces on corners 1 and 2; corner 0 balances them (translation invariance).
+    const double f1x = -(pax * b00 + pbx * b01), f1y = -(pay * b00 + pby * b01), f1z = -(paz * b00 + pbz * b01);
+    const double f2x = -(pax * b10 + pbx * b11), f2y = -(pay * b10 + pby * b11), f2z = -(paz * b10 + pbz * b11);
+    std::array<Vec3, 3>& out = corner_force[t];
+    out[0] = Vec3(-(f1x + f2x), -(f1y + f2y), -(f1z + f2z));
+    out[1] = Vec3(f1x, f1y, f1z);
+    out[2] = Vec3(f2x, f2y, f2z);
+  }
+}
+
+double membrane_energy(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
+                       const std::vector<Mat2>& rest_inv, const std::vector<double>& rest_area,
+                       const MembraneParams& params) {
+  double total = 0;
+  for (size_t t = 0; t < tri.size(); ++t) {
+    const Mat32 F = deformation_gradient(x, tri[t], rest_inv[t]);
+    const Mat32 R = polar_rotation(F);
+    const double tr = (R.transpose() * F).trace() - 2;
+    total += params.thickness * rest_area[t] * (params.mu * (F - R).squaredNorm() + 0.5 * params.lambda * tr * tr);
+  }
+  return total;
+}
+
+void gather_corner_forces(const Topology& topo, const std::vector<Tri>& tri,
+                          const std::vector<std::array<Vec3, 3>>& corner_force, int32_t begin, int32_t end,
+                          std::vector<Vec3>& vertex_force) {
+  for (int32_t v = begin; v < end; ++v) {
+    Vec3 sum = Vec3::Zero();
+    for (int32_t k = topo.vt_offset[v]; k < topo.vt_offset[v + 1]; ++k) {
+      const int32_t t = topo.vt_tri[k];
+      const Tri& c = tri[t];
+      const int32_t i = c[0] == v ? 0 : (c[1] == v ? 1 : 2);
+      sum += corner_force[t][i];
+    }
+    vertex_force[v] = sum;
+  }
+}
+
+}  // namespace pt

@@ -35,7 +35,7 @@ double membrane_energy(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
                        const MembraneParams& params);
 
 // Per-vertex sums in a fixed order (vertex → triangle fan, ascending), no atomics: the result does not
-// depend on the thread count. Vertices [begin, end).
+// depend on the thread count. Vertices [begin, end). Overwrites vertex_force[v] (bending is added after).
 void gather_corner_forces(const Topology& topo, const std::vector<Tri>& tri,
                           const std::vector<std::array<Vec3, 3>>& corner_force, int32_t begin, int32_t end,
                           std::vector<Vec3>& vertex_force);

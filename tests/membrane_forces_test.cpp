@@ -1,0 +1,267 @@
+// Membrane forces: gradient consistency, invariances, patch test, degenerate triangles, kernel speed (logged).
+#include "systems/membrane_forces.hpp"
+#include "systems/topology.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include <chrono>
+#include <cmath>
+#include <random>
+
+namespace pt {
+namespace {
+
+using Mat32 = Eigen::Matrix<double, 3, 2>;
+
+// A W x H rectangle as an nx x ny grid, each cell split into two counter-clockwise triangles (diagonals
+// alternate so the mesh has no preferred direction); interior vertices jittered by `jitter` cell sizes.
+Sheet make_grid(double W, double H, int nx, int ny, double jitter = 0, uint32_t seed = 1) {
+  Sheet s;
+  const int nv = (nx + 1) * (ny + 1);
+  s.verts.resize(nv);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int j = 0; j <= ny; ++j)
+    for (int i = 0; i <= nx; ++i) {
+      Vec2 p(W * i / nx, H * j / ny);
+      if (i > 0 && i < nx && j > 0 && j < ny) p += jitter * Vec2(u(rng) * W / nx, u(rng) * H / ny);
+      const int id = j * (nx + 1) + i;
+      s.verts.rest[id] = p;
+      s.verts.x[id] = Vec3(p.x(), p.y(), 0);
+    }
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const int a = j * (nx + 1) + i, b = a + 1, c = a + nx + 1, d = c + 1;
+      if ((i + j) % 2 == 0) {
+        s.tris.tri.push_back({a, b, d});
+        s.tris.tri.push_back({a, d, c});
+      } else {
+        s.tris.tri.push_back({a, b, c});
+        s.tris.tri.push_back({b, d, c});
+      }
+    }
+  s.tris.resize(static_cast<int32_t>(s.tris.tri.size()));
+  refresh_after_topology_change(s);
+  return s;
+}
+
+MembraneParams paper_params() { return membrane_params(Material{}); }
+
+struct OneTri {
+  std::vector<Vec3> x;
+  std::vector<Tri> tri{{0, 1, 2}};
+  std::vector<Mat2> rest_inv;
+  std::vector<double> rest_area;
+};
+
+OneTri random_triangle(std::mt19937& rng, double deform) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  OneTri o;
+  std::vector<Vec2> rest;
+  do {
+    rest = {Vec2(u(rng), u(rng)) * 0.01, Vec2(u(rng), u(rng)) * 0.01, Vec2(u(rng), u(rng)) * 0.01};
+    if ((rest[1] - rest[0]).x() * (rest[2] - rest[0]).y() - (rest[1] - rest[0]).y() * (rest[2] - rest[0]).x() < 0)
+      std::swap(rest[1], rest[2]);
+  } while ((rest[1] - rest[0]).x() * (rest[2] - rest[0]).y() - (rest[1] - rest[0]).y() * (rest[2] - rest[0]).x() <
+           2e-5);
+  update_rest_data(rest, o.tri, o.rest_inv, o.rest_area);
+  const Eigen::Matrix3d rot = Eigen::AngleAxisd(3 * u(rng), Vec3(u(rng), u(rng), u(rng)).normalized()).toRotationMatrix();
+  for (const Vec2& r : rest) {
+    const Vec3 p(r.x(), r.y(), 0);
+    o.x.push_back(rot * p + Vec3(u(rng), u(rng), u(rng)) * 0.01 * deform);
+  }
+  return o;
+}
+
+TEST(MembraneForces, LameParametersArePlaneStress) {
+  const Material m;
+  const MembraneParams p = membrane_params(m);
+  EXPECT_NEAR(p.mu, m.young / (2 * (1 + m.poisson)), 1e-6);
+  EXPECT_NEAR(p.lambda, m.young * m.poisson / (1 - m.poisson * m.poisson), 1e-3);
+  EXPECT_EQ(p.thickness, m.thickness);
+}
+
+TEST(MembraneForces, PolarRotationHasOrthonormalColumnsAndSymmetricStretch) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int k = 0; k < 200; ++k) {
+    Mat32 F;
+    for (int i = 0; i < 6; ++i) F(i) = u(rng);
+    const Mat32 R = polar_rotation(F);
+    EXPECT_LT((R.transpose() * R - Mat2::Identity()).norm(), 1e-12);
+    const Mat2 S = R.transpose() * F;
+    EXPECT_LT(std::abs(S(0, 1) - S(1, 0)), 1e-12);
+    EXPECT_GT(S.trace(), 0);
+    EXPECT_GE(S.determinant(), -1e-14);  // positive semi-definite stretch: R is the polar factor
+  }
+}
+
+TEST(MembraneForces, ForcesAreMinusEnergyGradient) {
+  std::mt19937 rng(7);
+  const MembraneParams params = paper_params();
+  for (int trial = 0; trial < 50; ++trial) {
+    OneTri o = random_triangle(rng, trial < 25 ? 0.05 : 0.5);
+    std::vector<std::array<Vec3, 3>> cf(1);
+    compute_membrane_forces(o.x, o.tri, o.rest_inv, o.rest_area, params, 0, 1, cf);
+    double max_f = 0;
+    for (const Vec3& f : cf[0]) max_f = std::max(max_f, f.norm());
+    const double h = 1e-7 * 0.01;
+    for (int c = 0; c < 3; ++c)
+      for (int d = 0; d < 3; ++d) {
+        std::vector<Vec3> xp = o.x, xm = o.x;
+        xp[c][d] += h;
+        xm[c][d] -= h;
+        const double g = (membrane_energy(xp, o.tri, o.rest_inv, o.rest_area, params) -
+                          membrane_energy(xm, o.tri, o.rest_inv, o.rest_area, params)) / (2 * h);
+        EXPECT_NEAR(cf[0][c][d], -g, 1e-6 * max_f) << "trial " << trial << " corner " << c << " dim " << d;
+      }
+  }
+}
+
+TEST(MembraneForces, ZeroAtRestAndUnderRigidMotion) {
+  Sheet s = make_grid(0.2, 0.1, 8, 4, 0.3);
+  const MembraneParams params = paper_params();
+  const int32_t nt = s.tris.size();
+  const Eigen::Matrix3d rot = Eigen::AngleAxisd(1.1, Vec3(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1)
+      for (Vec3& p : s.verts.x) p = rot * p + Vec3(0.3, -2, 5);
+    compute_membrane_forces(s.verts.x, s.tris.tri, s.tris.rest_inv, s.tris.rest_area, params, 0, nt,
+                            s.tris.corner_force);
+    // Scale: the force of a 1e-3 strain on a cell edge (E e ε L ≈ 4e5 · 1e-3 · 0.025 = 10 N).
+    for (int32_t t = 0; t < nt; ++t)
+      for (const Vec3& f : s.tris.corner_force[t]) EXPECT_LT(f.norm(), 1e-6) << "pass " << pass;
+    EXPECT_LT(membrane_energy(s.verts.x, s.tris.tri, s.tris.rest_inv, s.tris.rest_area, params), 1e-15);
+  }
+}
+
+TEST(MembraneForces, PatchTestUniformStretch) {
+  const double eps = 1e-3;
+  Sheet s = make_grid(0.2, 0.1, 10, 5, 0.3, 5);
+  for (int32_t i = 0; i < s.verts.size(); ++i)
+    s.verts.x[i] = Vec3((1 + eps) * s.verts.rest[i].x(), s.verts.rest[i].y(), 0);
+  const MembraneParams params = paper_params();
+  const int32_t nt = s.tris.size();
+  compute_membrane_forces(s.verts.x, s.tris.tri, s.tris.rest_inv, s.tris.rest_area, params, 0, nt,
+                          s.tris.corner_force);
+  // First Piola stress × thickness: P = e (2μ (F − R) + λ tr(RᵀF − I) R) with R = I, F = diag(1 + ε, 1).
+  const double pxx = params.thickness * (2 * params.mu + params.lambda) * eps;
+  const double pyy = params.thickness * params.lambda * eps;
+  for (int32_t t = 0; t < nt; ++t) {
+    // Recover P from the corner forces: [f1 f2] = −A P Bᵀ  ⇒  P = −[f1 f2] B⁻ᵀ / A.
+    Mat32 H;
+    H.col(0) = s.tris.corner_force[t][1];
+    H.col(1) = s.tris.corner_force[t][2];
+    const Mat32 P = -H * s.tris.rest_inv[t].transpose().inverse() / s.tris.rest_area[t];
+    EXPECT_NEAR(P(0, 0), pxx, 1e-9 * pxx);
+    EXPECT_NEAR(P(1, 1), pyy, 1e-9 * pxx);
+    EXPECT_NEAR(P(0, 1), 0, 1e-9 * pxx);
+    EXPECT_NEAR(P(1, 0), 0, 1e-9 * pxx);
+    EXPECT_NEAR(P.row(2).norm(), 0, 1e-9 * pxx);
+  }
+  std::vector<Vec3> f(s.verts.size());
+  gather_corner_forces(s.topo, s.tris.tri, s.tris.corner_force, 0, s.verts.size(), f);
+  const double scale = pxx * 0.02;  // force of the stress on one cell edge
+  Vec3 total = Vec3::Zero();
+  for (int32_t v = 0; v < s.verts.size(); ++v) {
+    total += f[v];
+    if (!(s.verts.flags[v] & kBoundary)) {
+      EXPECT_LT(f[v].norm(), 1e-9 * scale) << "interior vertex " << v;
+    }
+  }
+  EXPECT_LT(total.norm(), 1e-9 * scale);
+  // The right edge (u = W) carries the traction pxx · H in x.
+  double right = 0;
+  for (int32_t v = 0; v < s.verts.size(); ++v)
+    if (s.verts.rest[v].x() > 0.2 - 1e-12) right += f[v].x();
+  EXPECT_NEAR(right, -pxx * 0.1, 1e-9 * pxx);
+}
+
+TEST(MembraneForces, DegenerateTrianglesGiveFiniteForces) {
+  OneTri o;
+  std::vector<Vec2> rest{Vec2(0, 0), Vec2(0.01, 0), Vec2(0, 0.01)};
+  update_rest_data(rest, o.tri, o.rest_inv, o.rest_area);
+  const MembraneParams params = paper_params();
+  const std::vector<std::vector<Vec3>> cases{
+      {Vec3(0, 0, 0), Vec3(0, 0, 0), Vec3(0, 0, 0)},                  // point
+      {Vec3(0, 0, 0), Vec3(0.01, 0, 0), Vec3(0.005, 0, 0)},           // line, inside the edge
+      {Vec3(0, 0, 0), Vec3(0.01, 0, 0), Vec3(0.02, 0, 0)},            // line, beyond
+      {Vec3(0, 0, 0), Vec3(0, 0, 0), Vec3(0, 0.01, 0)},               // edge collapsed
+      {Vec3(0, 0, 0), Vec3(0.01, 0, 0), Vec3(0.0, 1e-12, 0)},         // nearly flat
+      {Vec3(0, 0, 0), Vec3(0.01, 0, 0), Vec3(0.0, -0.01, 0)},         // inverted in the plane
+      {Vec3(0, 0, 0), Vec3(0.01, 0, 0), Vec3(0.0, 1e-7, 1e-7)},       // nearly flat, off plane
+  };
+  for (size_t k = 0; k < cases.size(); ++k) {
+    o.x = cases[k];
+    std::vector<std::array<Vec3, 3>> cf(1);
+    compute_membrane_forces(o.x, o.tri, o.rest_inv, o.rest_area, params, 0, 1, cf);
+    for (const Vec3& f : cf[0]) EXPECT_TRUE(f.allFinite()) << "case " << k;
+    EXPECT_LT((cf[0][0] + cf[0][1] + cf[0][2]).norm(), 1e-9 * (cf[0][0].norm() + 1)) << "case " << k;
+    EXPECT_TRUE(std::isfinite(membrane_energy(o.x, o.tri, o.rest_inv, o.rest_area, params))) << "case " << k;
+    const Mat32 R = polar_rotation(deformation_gradient(o.x, o.tri[0], o.rest_inv[0]));
+    EXPECT_TRUE(R.allFinite()) << "case " << k;
+    EXPECT_LT((R.transpose() * R - Mat2::Identity()).norm(), 1e-9) << "case " << k;
+  }
+  // Continuity through the degenerate threshold: shrinking one side smoothly changes R smoothly.
+  Mat32 prev = Mat32::Zero();
+  for (int k = 0; k <= 60; ++k) {
+    const double hgt = 0.01 * std::pow(10.0, -0.2 * k);
+    o.x = {Vec3(0, 0, 0), Vec3(0.01, 0, 0), Vec3(0.003, hgt, 0)};
+    const Mat32 R = polar_rotation(deformation_gradient(o.x, o.tri[0], o.rest_inv[0]));
+    if (k > 0) {
+      EXPECT_LT((R - prev).norm(), 0.2) << "step " << k;
+    }
+    prev = R;
+  }
+}
+
+TEST(MembraneForces, GatherIsIndependentOfRanges) {
+  Sheet s = make_grid(0.2, 0.2, 12, 12, 0.3, 9);
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (Vec3& p : s.verts.x) p += 1e-3 * Vec3(u(rng), u(rng), u(rng));
+  const MembraneParams params = paper_params();
+  const int32_t nt = s.tris.size(), nv = s.verts.size();
+  compute_membrane_forces(s.verts.x, s.tris.tri, s.tris.rest_inv, s.tris.rest_area, params, 0, nt,
+                          s.tris.corner_force);
+  std::vector<Vec3> a(nv), b(nv);
+  gather_corner_forces(s.topo, s.tris.tri, s.tris.corner_force, 0, nv, a);
+  std::vector<std::array<Vec3, 3>> cf2(nt);
+  for (int32_t e = nt; e > 0; e -= 7)
+    compute_membrane_forces(s.verts.x, s.tris.tri, s.tris.rest_inv, s.tris.rest_area, params, std::max(0, e - 7), e, cf2);
+  for (int32_t e = nv; e > 0; e -= 5) gather_corner_forces(s.topo, s.tris.tri, cf2, std::max(0, e - 5), e, b);
+  for (int32_t v = 0; v < nv; ++v) EXPECT_EQ(a[v], b[v]);
+}
+
+// Throughput of the kernel, logged only (no timing assertion).
+TEST(MembraneForces, KernelThroughputLogged) {
+  Sheet s = make_grid(0.3, 0.3, 160, 160, 0.3, 11);  // 51 200 triangles
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (Vec3& p : s.verts.x) p += 2e-4 * Vec3(u(rng), u(rng), u(rng));
+  const MembraneParams params = paper_params();
+  const int32_t nt = s.tris.size();
+  int reps = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  double elapsed = 0;
+  while (elapsed < 0.3) {
+    compute_membrane_forces(s.verts.x, s.tris.tri, s.tris.rest_inv, s.tris.rest_area, params, 0, nt,
+                            s.tris.corner_force);
+    ++reps;
+    elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  const double rate = static_cast<double>(reps) * nt / elapsed;
+  std::vector<Vec3> f(s.verts.size());
+  const auto t1 = std::chrono::steady_clock::now();
+  for (int k = 0; k < 20; ++k) gather_corner_forces(s.topo, s.tris.tri, s.tris.corner_force, 0, s.verts.size(), f);
+  const double gather = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count() / 20;
+  std::printf("[ timing ] membrane kernel: %.1f M triangles/s (one core, %d triangles); gather: %.1f M vertices/s\n",
+              rate * 1e-6, nt, s.verts.size() / gather * 1e-6);
+  RecordProperty("triangles_per_s", static_cast<int>(rate));
+  EXPECT_TRUE(f[0].allFinite());
+}
+
+}  // namespace
+}  // namespace pt
