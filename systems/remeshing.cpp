@@ -1,1 +1,604 @@
-// placeholder: implemented by its issue
+// Cutting a tear segment into the coarse mesh (paper §5.3, appendix A; DESIGN §5.5).
+//
+// Everything happens in the 2D pattern (verts.rest). The cut runs in four phases:
+//   1. walk: from boundary vertex p, follow the segment p → next triangle by triangle, splitting each
+//      crossed edge as it is met (or snapping the crossing onto a nearby vertex), until `next` lies in the
+//      current triangle (inserted there, or snapped onto a vertex or an edge) or the boundary is hit.
+//      After the walk the path is a chain of mesh edges v0 = p, v1, ..., vk.
+//   2. cut: every path vertex except the final tip is duplicated; the copy takes the triangles on the
+//      right of the path, so the two lips no longer share edges (appendix A: the tear becomes boundary).
+//   3. split or remove p (Fig. 8): a straight continuation removes p from both lips by collapsing it along
+//      its lip's boundary, so a straight tear does not leave a vertex per step (keep the mesh coarse).
+//   4. compaction of the dense arrays (swap-with-last), remapping of finger and tip ids, refresh.
+// The walk only touches the triangles the segment crosses; the vertex fans it needs come from the topology
+// of the sheet at entry plus the short list of triangles this cut has modified or appended.
+#include "systems/remeshing.hpp"
+
+#include "systems/topology.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace pt {
+namespace {
+
+double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+
+bool contains(const Tri& t, int32_t v) { return t[0] == v || t[1] == v || t[2] == v; }
+
+int corner_of(const Tri& t, int32_t v) {
+  for (int i = 0; i < 3; ++i)
+    if (t[i] == v) return i;
+  return -1;
+}
+
+// Triangle rotated so that v is its first corner (counter-clockwise order kept).
+Tri rotated_to(const Tri& t, int32_t v) {
+  const int i = corner_of(t, v);
+  return Tri{t[i], t[(i + 1) % 3], t[(i + 2) % 3]};
+}
+
+double min_angle(const Vec2& a, const Vec2& b, const Vec2& c) {
+  auto ang = [](const Vec2& p, const Vec2& q, const Vec2& r) {
+    const Vec2 u = q - p, w = r - p;
+    return std::atan2(std::abs(cross2(u, w)), u.dot(w));
+  };
+  return std::min({ang(a, b, c), ang(b, c, a), ang(c, a, b)});
+}
+
+// Working state of one cut. `undo` keeps the original corners of every pre-existing triangle the cut
+// modified, so a cut that gives up restores the sheet bit for bit (appended items are simply truncated).
+struct Cut {
+  Sheet& S;
+  const Topology& topo;  // topology of the sheet at entry (valid for ids < n0 / nt0)
+  int32_t n0, nt0;
+  std::vector<int32_t> touched;  // triangles modified or appended by this cut, ascending, unique
+  std::vector<std::pair<int32_t, Tri>> undo;
+  int32_t created = 0;
+
+  Cut(Sheet& s, const Topology& t) : S(s), topo(t), n0(s.verts.size()), nt0(s.tris.size()) {}
+
+  const Vec2& r(int32_t v) const { return S.verts.rest[v]; }
+  const Tri& tri(int32_t t) const { return S.tris.tri[t]; }
+
+  void touch(int32_t t) {
+    auto it = std::lower_bound(touched.begin(), touched.end(), t);
+    if (it == touched.end() || *it != t) touched.insert(it, t);
+  }
+
+  // Triangles around v now, ascending ids (deterministic).
+  std::vector<int32_t> fan(int32_t v) const {
+    std::vector<int32_t> f;
+    if (v < n0)
+      for (int32_t k = topo.vt_offset[v]; k < topo.vt_offset[v + 1]; ++k)
+        if (contains(tri(topo.vt_tri[k]), v)) f.push_back(topo.vt_tri[k]);
+    for (int32_t t : touched)
+      if (contains(tri(t), v)) f.push_back(t);
+    std::sort(f.begin(), f.end());
+    f.erase(std::unique(f.begin(), f.end()), f.end());
+    return f;
+  }
+
+  std::vector<int32_t> edge_tris(int32_t a, int32_t b) const {
+    std::vector<int32_t> e;
+    for (int32_t t : fan(a))
+      if (contains(tri(t), b)) e.push_back(t);
+    return e;
+  }
+
+  bool boundary_edge(int32_t a, int32_t b) const { return edge_tris(a, b).size() == 1; }
+
+  // A vertex is on the boundary when one of its fan's edges has a single triangle.
+  bool boundary_vertex(int32_t v) const {
+    std::vector<int32_t> nb;
+    for (int32_t t : fan(v)) {
+      const Tri q = rotated_to(tri(t), v);
+      nb.push_back(q[1]);
+      nb.push_back(q[2]);
+    }
+    std::sort(nb.begin(), nb.end());
+    for (size_t i = 0; i < nb.size();) {
+      size_t j = i;
+      while (j < nb.size() && nb[j] == nb[i]) ++j;
+      if (j - i == 1) return true;
+      i = j;
+    }
+    return false;
+  }
+
+  std::vector<int32_t> neighbours(int32_t v) const {
+    std::vector<int32_t> nb;
+    for (int32_t t : fan(v))
+      for (int32_t c : tri(t))
+        if (c != v) nb.push_back(c);
+    std::sort(nb.begin(), nb.end());
+    nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
+    return nb;
+  }
+
+  void set_tri(int32_t t, const Tri& q) {
+    if (t < nt0 && std::none_of(undo.begin(), undo.end(), [t](const auto& u) { return u.first == t; }))
+      undo.push_back({t, tri(t)});
+    S.tris.tri[t] = q;
+    touch(t);
+  }
+
+  // Appended triangles inherit the region and texture side of the triangle they were split from.
+  void add_tri(const Tri& q, int32_t parent) {
+    Triangles& T = S.tris;
+    T.tri.push_back(q);
+    T.rest_inv.push_back(Mat2::Identity());
+    T.rest_area.push_back(0.0);
+    T.corner_force.push_back({Vec3::Zero(), Vec3::Zero(), Vec3::Zero()});
+    T.region.push_back(T.region[parent]);
+    T.piece.push_back(T.piece[parent]);
+    T.side.push_back(T.side[parent]);
+    touch(T.size() - 1);
+  }
+
+  // New vertices start at rest (zero velocity, paper §5.3) and carry kNew.
+  int32_t add_vertex(const Vec2& rest, const Vec3& x, int32_t tear) {
+    Vertices& V = S.verts;
+    V.x.push_back(x);
+    V.v.push_back(Vec3::Zero());
+    V.force.push_back(Vec3::Zero());
+    V.rest.push_back(rest);
+    V.mass.push_back(0.0);
+    V.flags.push_back(kNew);
+    V.tear.push_back(tear);
+    ++created;
+    return V.size() - 1;
+  }
+
+  void rollback() {
+    for (auto it = undo.rbegin(); it != undo.rend(); ++it) S.tris.tri[it->first] = it->second;
+    S.tris.tri.resize(nt0);
+    S.tris.rest_inv.resize(nt0);
+    S.tris.rest_area.resize(nt0);
+    S.tris.corner_force.resize(nt0);
+    S.tris.region.resize(nt0);
+    S.tris.piece.resize(nt0);
+    S.tris.side.resize(nt0);
+    Vertices& V = S.verts;
+    V.x.resize(n0);
+    V.v.resize(n0);
+    V.force.resize(n0);
+    V.rest.resize(n0);
+    V.mass.resize(n0);
+    V.flags.resize(n0);
+    V.tear.resize(n0);
+  }
+
+  // Splits edge (a, b) at parameter s from a: both adjacent triangles are split in two (the new vertex is
+  // joined to each opposite corner), so the path through the new vertex lies on mesh edges.
+  int32_t split_edge(int32_t a, int32_t b, double s, int32_t tear) {
+    const Vec2 p = r(a) + s * (r(b) - r(a));
+    const Vec3 x = S.verts.x[a] + s * (S.verts.x[b] - S.verts.x[a]);
+    const int32_t w = add_vertex(p, x, tear);
+    for (int32_t t : edge_tris(a, b)) {
+      const Tri q = tri(t);
+      int i = 0;
+      while (!((q[i] == a && q[(i + 1) % 3] == b) || (q[i] == b && q[(i + 1) % 3] == a))) ++i;
+      const int32_t u = q[i], v = q[(i + 1) % 3], c = q[(i + 2) % 3];
+      set_tri(t, Tri{u, w, c});
+      add_tri(Tri{w, v, c}, t);
+    }
+    return w;
+  }
+
+  // 1 → 3 split of triangle t at pattern point p (3D position by barycentric interpolation).
+  int32_t insert_in_triangle(int32_t t, const Vec2& p, int32_t tear) {
+    const Tri q = tri(t);
+    const Vec2 &A = r(q[0]), &B = r(q[1]), &C = r(q[2]);
+    const double area = cross2(B - A, C - A);
+    const double la = cross2(B - p, C - p) / area, lb = cross2(C - p, A - p) / area;
+    const double lc = 1.0 - la - lb;
+    const Vec3 x = la * S.verts.x[q[0]] + lb * S.verts.x[q[1]] + lc * S.verts.x[q[2]];
+    const int32_t e = add_vertex(p, x, tear);
+    set_tri(t, Tri{q[0], q[1], e});
+    add_tri(Tri{q[1], q[2], e}, t);
+    add_tri(Tri{q[2], q[0], e}, t);
+    return e;
+  }
+};
+
+// Triangle of cur's fan whose angular sector at cur contains direction d (unit), −1 if none.
+// `exclude` (≥ 0) drops triangles holding that vertex: after crossing an edge the walk must not turn back
+// into the triangles it came from, whatever the rounding. At a boundary start vertex the direction must
+// point strictly inside the open fan (along a boundary edge is "out of the sheet").
+int32_t sector_triangle(const Cut& C, int32_t cur, const Vec2& d, int32_t exclude, bool strict) {
+  int32_t best = -1;
+  double best_violation = 0;
+  for (int32_t t : C.fan(cur)) {
+    if (exclude >= 0 && contains(C.tri(t), exclude)) continue;
+    const Tri q = rotated_to(C.tri(t), cur);
+    const Vec2 ea = (C.r(q[1]) - C.r(cur)).normalized(), eb = (C.r(q[2]) - C.r(cur)).normalized();
+    if (d.dot(ea + eb) <= 0) continue;  // the opposite direction of a thin sector
+    const double ca = cross2(ea, d), cb = cross2(d, eb);
+    if (strict) {
+      // Boundary edges at the start vertex bound the sheet: d must leave them by a real angle.
+      if (C.boundary_edge(cur, q[1]) && ca <= 1e-9) continue;
+      if (C.boundary_edge(cur, q[2]) && cb <= 1e-9) continue;
+    }
+    const double violation = std::max({0.0, -ca, -cb});
+    if (strict && violation > 0) continue;
+    if (best < 0 || violation < best_violation) {  // ascending ids: the first wins ties (determinism)
+      best_violation = violation;
+      best = t;
+      if (violation == 0) break;
+    }
+  }
+  if (best >= 0 && best_violation > (strict ? 0.0 : 1e-7)) return -1;
+  return best;
+}
+
+// Vertices on the right of the path at path vertex i (right = clockwise from the outgoing path edge to the
+// incoming one). Open fans (start vertex, boundary end vertex) run from the path edge to the boundary.
+// Returns false if the fan does not have the expected shape.
+bool right_side(const Cut& C, const std::vector<int32_t>& path, size_t i, std::vector<int32_t>& out) {
+  const int32_t v = path[i];
+  const std::vector<int32_t> fan = C.fan(v);
+  auto find = [&](auto pred) {
+    for (int32_t t : fan) {
+      const Tri q = rotated_to(C.tri(t), v);
+      if (pred(q)) return t;
+    }
+    return int32_t{-1};
+  };
+  out.clear();
+  const size_t guard = fan.size() + 1;
+  if (i + 1 < path.size()) {
+    // Clockwise from the triangle (v, x, next) until the triangle (v, prev, y), or the boundary for p.
+    const int32_t next = path[i + 1];
+    const int32_t prev = i > 0 ? path[i - 1] : -1;
+    int32_t t = find([&](const Tri& q) { return q[2] == next; });
+    while (t >= 0 && out.size() < guard) {
+      out.push_back(t);
+      const Tri q = rotated_to(C.tri(t), v);
+      if (q[1] == prev) return true;
+      const int32_t x = q[1];
+      t = find([&](const Tri& q2) { return q2[2] == x; });
+    }
+    return prev < 0 && !out.empty() && out.size() < guard;
+  }
+  // Last vertex on the boundary: counter-clockwise from the triangle (v, prev, y) to the boundary.
+  const int32_t prev = path[i - 1];
+  int32_t t = find([&](const Tri& q) { return q[1] == prev; });
+  while (t >= 0 && out.size() < guard) {
+    out.push_back(t);
+    const int32_t y = rotated_to(C.tri(t), v)[2];
+    t = find([&](const Tri& q2) { return q2[1] == y; });
+  }
+  return !out.empty() && out.size() < guard;
+}
+
+// Boundary neighbours of a boundary vertex from its (open) fan: next follows v along the boundary with the
+// interior on the left (edge v→next in a triangle without a twin), prev precedes it.
+std::pair<int32_t, int32_t> boundary_neighbours(const Cut& C, int32_t v) {
+  std::vector<int32_t> after, before;
+  for (int32_t t : C.fan(v)) {
+    const Tri q = rotated_to(C.tri(t), v);
+    after.push_back(q[1]);
+    before.push_back(q[2]);
+  }
+  int32_t next = -1, prev = -1;
+  for (int32_t a : after)
+    if (std::find(before.begin(), before.end(), a) == before.end()) next = a;
+  for (int32_t b : before)
+    if (std::find(after.begin(), after.end(), b) == after.end()) prev = b;
+  return {next, prev};
+}
+
+// Edge collapse of boundary vertex v into its boundary neighbour q (Fig. 8 right). Valid when the link
+// condition holds (no edge gets three triangles, no bow-tie) and every remaining triangle stays
+// counter-clockwise; `quality` is the smallest angle of the changed triangles.
+bool collapse_ok(const Cut& C, int32_t v, int32_t q, double& quality) {
+  const std::vector<int32_t> fan = C.fan(v);
+  int32_t removed = -1, apex = -1;
+  quality = std::numbers::pi;
+  for (int32_t t : fan) {
+    Tri k = C.tri(t);
+    if (contains(k, q)) {
+      if (removed >= 0) return false;  // q–v is not a boundary edge
+      removed = t;
+      for (int32_t c : k)
+        if (c != v && c != q) apex = c;
+      continue;
+    }
+    k[corner_of(k, v)] = q;
+    const Vec2 &a = C.r(k[0]), &b = C.r(k[1]), &c = C.r(k[2]);
+    const double scale = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+    if (!(cross2(b - a, c - a) > 1e-12 * scale)) return false;
+    quality = std::min(quality, min_angle(a, b, c));
+  }
+  if (removed < 0) return false;
+  std::vector<int32_t> nv = C.neighbours(v), nq = C.neighbours(q), common;
+  std::set_intersection(nv.begin(), nv.end(), nq.begin(), nq.end(), std::back_inserter(common));
+  return common.size() == 1 && common[0] == apex;
+}
+
+void apply_collapse(Cut& C, int32_t v, int32_t q) {
+  for (int32_t t : C.fan(v)) {
+    Tri k = C.tri(t);
+    if (contains(k, q)) {
+      C.set_tri(t, Tri{-1, -1, -1});  // dead, compacted at the end
+    } else {
+      k[corner_of(k, v)] = q;
+      C.set_tri(t, k);
+    }
+  }
+}
+
+}  // namespace
+
+CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_direction, int32_t tear_id,
+                           const RemeshParams& params, Sheet& sheet) {
+  CutResult result;
+  if (p < 0 || p >= sheet.verts.size() || !next.allFinite()) return result;
+
+  // The fans of the sheet at entry; rebuilt locally if a caller changed triangles without a refresh.
+  Topology local;
+  const Topology* topo = &sheet.topo;
+  if (sheet.topo.version != sheet.topology_version ||
+      static_cast<int32_t>(sheet.topo.vt_offset.size()) != sheet.verts.size() + 1) {
+    std::vector<int32_t> piece;
+    build_topology(sheet.tris.tri, sheet.verts.size(), local, piece);
+    topo = &local;
+  }
+  if (topo->boundary_next[p] < 0) return result;  // p must be a boundary vertex
+
+  Cut C(sheet, *topo);
+  const Vec2 d0 = next - C.r(p);
+
+  // ---- 1–2. Walk and split (paper §5.3: "p_next has to be integrated into the boundary"). ----
+  std::vector<int32_t> path{p};
+  bool reached_boundary = false;
+  bool from_crossing = false;  // cur was created on a crossed edge (do not turn back into its old side)
+  int32_t cur = p;
+  const int32_t max_steps = 4 * (sheet.tris.size() + 4);
+  for (int32_t step = 0; step < max_steps; ++step) {
+    const Vec2 pc = C.r(cur);
+    const Vec2 d = next - pc;
+    const double dn = d.norm();
+    if (cur != p && dn == 0) break;
+    const int32_t exclude = from_crossing && path.size() >= 2 ? path[path.size() - 2] : -1;
+    const int32_t t = dn > 0 ? sector_triangle(C, cur, d / dn, exclude, cur == p) : -1;
+    if (t < 0) break;  // at p: d points out of the sheet (nothing modified yet)
+    const Tri q = rotated_to(C.tri(t), cur);
+    const int32_t a = q[1], b = q[2];
+    const Vec2 A = C.r(a), B = C.r(b);
+    const double h = ((A - pc).norm() + (B - pc).norm() + (B - A).norm()) / 3.0;
+    const double r_vertex = params.snap_fraction * h;  // snap radius to a vertex
+    const double r_edge = 0.2 * r_vertex;              // "very close" to an edge
+    if (cur == p && dn < 1e-6 * h) break;              // degenerate segment
+
+    // A vertex may be snapped to unless it is already on the path, or reaching it would run along the
+    // boundary (an edge of the start vertex's open fan).
+    auto snappable = [&](int32_t u) {
+      return std::find(path.begin(), path.end(), u) == path.end() && !C.boundary_edge(cur, u);
+    };
+
+    const double ab_len = (B - A).norm();
+    const double inside = cross2(B - A, next - A) / ab_len;  // distance of next from ab, > 0 on cur's side
+    if (inside >= -r_edge) {
+      // `next` is in this triangle: snap it to a vertex, onto an edge, or insert it (1 → 3).
+      int32_t snap_v = -1;
+      double best = r_vertex;
+      for (int32_t u : {a, b})
+        if (snappable(u) && (C.r(u) - next).norm() < best) {
+          best = (C.r(u) - next).norm();
+          snap_v = u;
+        }
+      if (snap_v >= 0) {
+        path.push_back(snap_v);
+        reached_boundary = C.boundary_vertex(snap_v);
+        break;
+      }
+      if (cur != p && dn < r_vertex) break;  // the walk already stands on a vertex close to next
+      // Nearest edge of the triangle (edges of the start vertex's open fan excluded).
+      const std::array<std::pair<int32_t, int32_t>, 3> edges{{{cur, a}, {a, b}, {b, cur}}};
+      int32_t best_edge = -1;
+      double best_dist = 0, best_s = 0;
+      for (int32_t k = 0; k < 3; ++k) {
+        const auto [u, w] = edges[k];
+        if ((u == cur || w == cur) && C.boundary_edge(u, w)) continue;
+        const Vec2 U = C.r(u), W = C.r(w);
+        const double s = std::clamp((next - U).dot(W - U) / (W - U).squaredNorm(), 0.0, 1.0);
+        const double dist = (U + s * (W - U) - next).norm();
+        if (best_edge < 0 || dist < best_dist) {
+          best_edge = k;
+          best_dist = dist;
+          best_s = s;
+        }
+      }
+      // Snap onto the edge when very close, or when a 1 → 3 insertion would leave a sliver that the snap
+      // avoids (RemeshParams::min_angle_deg).
+      bool on_edge = best_edge >= 0 && best_dist < r_edge;
+      if (!on_edge && best_edge >= 0 && best_dist < 0.5 * r_vertex) {
+        const double worst = std::min({min_angle(pc, A, next), min_angle(A, B, next), min_angle(B, pc, next)});
+        on_edge = worst < params.min_angle_deg * std::numbers::pi / 180.0;
+      }
+      if (!(inside > 0) && !on_edge) {
+        // next is outside the triangle within r_edge: it can only go onto edge ab.
+        on_edge = true;
+        best_edge = 1;
+        best_s = std::clamp((next - A).dot(B - A) / (B - A).squaredNorm(), 0.0, 1.0);
+      }
+      if (on_edge) {
+        const auto [u, w] = edges[best_edge];
+        const bool boundary = C.boundary_edge(u, w);
+        const double s = std::clamp(best_s, 1e-6, 1.0 - 1e-6);
+        path.push_back(C.split_edge(u, w, s, tear_id));
+        reached_boundary = boundary;
+      } else {
+        path.push_back(C.insert_in_triangle(t, next, tear_id));
+      }
+      break;
+    }
+
+    // The segment leaves through edge ab at parameter s (from a): split it there, or snap to a or b when
+    // the crossing is within snap_fraction of them (no slivers).
+    const Vec2 D = d;
+    const double denom = cross2(D, B - A);
+    double s = denom != 0 ? cross2(A - pc, D) / denom : 0.5;
+    s = std::clamp(s, 0.0, 1.0);
+    int32_t u = -1;
+    if (s < params.snap_fraction && snappable(a)) u = a;
+    else if (s > 1.0 - params.snap_fraction && snappable(b)) u = b;
+    // A snap must bring the walk closer to next (it always ends; a sliver is better than turning back).
+    if (u >= 0 && !((next - C.r(u)).norm() < dn)) u = -1;
+    const Vec2 point = u >= 0 ? C.r(u) : Vec2(A + s * (B - A));
+    if (!((next - point).norm() < dn)) break;  // no progress (rounding): stop the tear at cur
+    if (u >= 0) {
+      path.push_back(u);
+      from_crossing = false;
+      if (C.boundary_vertex(u)) {
+        reached_boundary = true;
+        break;
+      }
+    } else {
+      const bool boundary = C.boundary_edge(a, b);
+      path.push_back(C.split_edge(a, b, std::clamp(s, 1e-6, 1.0 - 1e-6), tear_id));
+      from_crossing = true;
+      if (boundary) {
+        reached_boundary = true;
+        break;
+      }
+    }
+    cur = path.back();
+  }
+  if (path.size() < 2) {
+    C.rollback();
+    return result;
+  }
+
+  // ---- 3. Cut: duplicate the path vertices, the copy takes the right-hand triangles. ----
+  const size_t k = path.size() - 1;
+  const size_t dup_count = reached_boundary ? k + 1 : k;
+  std::vector<std::vector<int32_t>> right(dup_count);
+  for (size_t i = 0; i < dup_count; ++i)
+    if (!right_side(C, path, i, right[i])) {
+      C.rollback();
+      return result;
+    }
+  // kNew marks the vertices of the last remesh only.
+  for (int32_t v = 0; v < C.n0; ++v) sheet.verts.flags[v] &= static_cast<uint8_t>(~kNew);
+  std::vector<int32_t> copy(dup_count);
+  for (size_t i = 0; i < dup_count; ++i) {
+    const int32_t v = path[i];
+    copy[i] = C.add_vertex(sheet.verts.rest[v], sheet.verts.x[v], tear_id);
+    for (int32_t t : right[i]) {
+      Tri q = C.tri(t);
+      q[corner_of(q, v)] = copy[i];
+      C.set_tri(t, q);
+    }
+  }
+  for (int32_t v : path) sheet.verts.tear[v] = tear_id;
+  // The tear's tip moves on: p is no longer a tip, the new tip is.
+  sheet.verts.flags[p] &= static_cast<uint8_t>(~kTip);
+  sheet.verts.flags[copy[0]] &= static_cast<uint8_t>(~kTip);
+  if (!reached_boundary) sheet.verts.flags[path.back()] |= kTip;
+
+  // ---- 4. Split or remove p (Fig. 8). ----
+  std::vector<std::pair<int32_t, int32_t>> removed;  // (vertex, vertex it merged into)
+  const double turn = std::atan2(std::abs(cross2(previous_direction, d0)), previous_direction.dot(d0));
+  bool held = false;
+  for (const Finger& f : sheet.fingers) held = held || f.vertex == p;
+  if (previous_direction.squaredNorm() > 0 && d0.squaredNorm() > 0 && turn <= params.split_angle && !held) {
+    // Removing p from both lips keeps the area only when both lips come back along the same line, i.e. the
+    // back neighbours are the two copies of the previous tear vertex: each lip's boundary a–p–b becomes the
+    // straight a–b, one lip gains the wedge (a, p, b) that the other loses.
+    const auto [next_l, prev_l] = boundary_neighbours(C, p);
+    const auto [next_r, prev_r] = boundary_neighbours(C, copy[0]);
+    const bool mirrored = prev_l >= 0 && next_r >= 0 && prev_l != next_r && next_l >= 0 && prev_r >= 0 &&
+                          C.r(prev_l) == C.r(next_r) && C.r(next_l) == C.r(prev_r);
+    if (mirrored) {
+      auto choose = [&](int32_t v, int32_t n1, int32_t n2) {
+        int32_t best = -1;
+        double best_q = -1, q = 0;
+        for (int32_t n : {n1, n2})
+          if (collapse_ok(C, v, n, q) && q > best_q) {
+            best_q = q;
+            best = n;
+          }
+        return best;
+      };
+      const int32_t into_l = choose(p, prev_l, next_l);
+      const int32_t into_r = choose(copy[0], next_r, prev_r);
+      if (into_l >= 0 && into_r >= 0) {
+        apply_collapse(C, p, into_l);
+        apply_collapse(C, copy[0], into_r);
+        removed.push_back({copy[0], into_r});
+        removed.push_back({p, into_l});
+      }
+    }
+  }
+
+  // ---- 5. Compaction: dead triangles and removed vertices go by swap-with-last. ----
+  Triangles& T = sheet.tris;
+  std::vector<int32_t> dead;
+  for (int32_t t : C.touched)
+    if (T.tri[t][0] < 0) dead.push_back(t);
+  std::sort(dead.rbegin(), dead.rend());
+  for (int32_t t : dead) {
+    const int32_t last = T.size() - 1;
+    if (t != last) {
+      T.tri[t] = T.tri[last];
+      T.rest_inv[t] = T.rest_inv[last];
+      T.rest_area[t] = T.rest_area[last];
+      T.corner_force[t] = T.corner_force[last];
+      T.region[t] = T.region[last];
+      T.piece[t] = T.piece[last];
+      T.side[t] = T.side[last];
+    }
+    T.resize(last);
+  }
+  Vertices& V = sheet.verts;
+  const int32_t nv = V.size();
+  std::vector<int32_t> where(nv), at(nv);  // original id → current slot, slot → original id
+  for (int32_t i = 0; i < nv; ++i) where[i] = at[i] = i;
+  std::vector<int32_t> gone;
+  for (const auto& rm : removed) gone.push_back(rm.first);
+  std::sort(gone.rbegin(), gone.rend());
+  for (int32_t v : gone) {
+    const int32_t slot = where[v], last = V.size() - 1;
+    if (slot != last) {
+      V.x[slot] = V.x[last];
+      V.v[slot] = V.v[last];
+      V.force[slot] = V.force[last];
+      V.rest[slot] = V.rest[last];
+      V.mass[slot] = V.mass[last];
+      V.flags[slot] = V.flags[last];
+      V.tear[slot] = V.tear[last];
+      const int32_t moved = at[last];
+      where[moved] = slot;
+      at[slot] = moved;
+    }
+    where[v] = -1;
+    V.resize(last);
+  }
+  auto remap = [&](int32_t v) {
+    if (v < 0 || v >= nv) return v;
+    for (const auto& rm : removed)
+      if (rm.first == v) v = rm.second;  // a removed vertex lives on in the one it merged into
+    return where[v];
+  };
+  if (!gone.empty()) {
+    for (Tri& q : T.tri)
+      for (int32_t& c : q) c = where[c];
+    for (Finger& f : sheet.fingers) f.vertex = remap(f.vertex);
+    for (Tip& tp : sheet.tips) tp.vertex = remap(tp.vertex);
+  }
+  refresh_after_topology_change(sheet);
+
+  result.cut = true;
+  result.reached_boundary = reached_boundary;
+  result.tip_vertex = reached_boundary ? -1 : where[path.back()];
+  result.end = V.rest[where[path.back()]];
+  result.new_vertices = C.created;
+  result.removed_vertices = static_cast<int32_t>(gone.size());
+  return result;
+}
+
+}  // namespace pt
