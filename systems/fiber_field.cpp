@@ -41,9 +41,11 @@ const GradientTable& gradients() {
 // visible lattice creases.
 inline double fade(double t) { return t * t * t * (t * (t * 6.0 - 15.0) + 10.0); }
 
+// One splitmix finaliser per corner: the lattice coordinates are folded in with odd multipliers first
+// (a bijection per coordinate), and the finaliser's avalanche makes neighbouring corners independent.
 inline double corner(const GradientTable& g, uint64_t key, int64_t ix, int64_t iy, double dx, double dy) {
-  const uint64_t h = mix64(key ^ mix64(static_cast<uint64_t>(ix) * 0xD1B54A32D192ED03ull +
-                                       static_cast<uint64_t>(iy) * 0x8CB92BA72F3D8DD7ull));
+  const uint64_t h = mix64(key + static_cast<uint64_t>(ix) * 0xD1B54A32D192ED03ull +
+                           static_cast<uint64_t>(iy) * 0x8CB92BA72F3D8DD7ull);
   const int k = static_cast<int>(h >> 59);  // top 5 bits: 32 directions
   return g.gx[k] * dx + g.gy[k] * dy;
 }
