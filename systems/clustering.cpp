@@ -16,6 +16,7 @@
 #include <Eigen/LU>
 
 #include <cmath>
+#include <numbers>
 
 namespace pt {
 namespace {
@@ -137,7 +138,7 @@ bool cluster_tip_forces(const Vertices& verts, const Triangles& tris, const Topo
   if (!bisector_from_split(t_next, t_prev, n, b)) {
     // Tangents equal in the tangent plane: a zero-width slit (sheet all around: go against the tangent)
     // or a needle (sheet only along it). The pattern angle tells which.
-    const bool reflex = interior_pattern_angle(topo, verts.rest, p) > M_PI;
+    const bool reflex = interior_pattern_angle(topo, verts.rest, p) > std::numbers::pi;
     b = unit_or_zero(project_on_plane(t_next, n)) * (reflex ? -1.0 : 1.0);
     if (b.isZero()) return false;
   }
