@@ -263,7 +263,7 @@ struct Simulation::Impl {
 
   void run_candidates() {
     ScopedTimer timer(profile.candidates);
-    find_candidates(sheet.verts, sheet.tips, sheet.fingers, sheet.material, fiber, candidates);
+    find_candidates(sheet.verts, sheet.tips, sheet.fingers, sheet.tears, sheet.material, fiber, candidates);
   }
 
   void refresh_role_flags() {
@@ -360,7 +360,7 @@ struct Simulation::Impl {
       // Vertex ids changed: find the candidates again and go on with the ones not yet treated.
       {
         ScopedTimer timer(profile.candidates);
-        find_candidates(sheet.verts, sheet.tips, sheet.fingers, sheet.material, fiber, candidates);
+        find_candidates(sheet.verts, sheet.tips, sheet.fingers, sheet.tears, sheet.material, fiber, candidates);
       }
       index = 0;
       ++propagations;
