@@ -9,13 +9,15 @@
 #include <CGAL/Delaunay_mesh_vertex_base_2.h>
 #include <CGAL/Delaunay_mesher_2.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Triangulation_vertex_base_with_info_2.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <numbers>
 #include <random>
-#include <unordered_map>
+#include <utility>
 
 namespace pt {
 namespace {
@@ -113,6 +115,289 @@ std::pair<long, long> find_self_intersection(const std::vector<Vec2>& poly) {
   return first;
 }
 
+// ---- CGAL mesher -------------------------------------------------------------------------------------
+
+// `exact` indexes the exact input coordinates (augmented outline, then interior required points) a vertex
+// must get back after meshing; −1 for Steiner vertices. `id` is the output index during extraction.
+struct VertexInfo {
+  int32_t exact = -1;
+  int32_t id = -1;
+};
+using Vb = CGAL::Triangulation_vertex_base_with_info_2<VertexInfo, K, CGAL::Delaunay_mesh_vertex_base_2<K>>;
+using Fb = CGAL::Delaunay_mesh_face_base_2<K>;
+using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
+using CDT = CGAL::Constrained_Delaunay_triangulation_2<K, Tds, CGAL::Exact_predicates_tag>;
+using Criteria = CGAL::Delaunay_mesh_size_criteria_2<CDT>;
+using Mesher = CGAL::Delaunay_mesher_2<CDT, Criteria>;
+
+// The request after validation: the outline with required points on its edges spliced in (`ring`), the
+// interior required points, and the meshing frame (rotation about the bounding-box centre, which keeps
+// coordinates small so the rotation loses little precision).
+struct Problem {
+  std::vector<Vec2> exact;          // ring vertices [0, ring_size), then interior required points
+  int32_t ring_size = 0;
+  std::vector<int32_t> required_slot;  // required point i → index into `exact`
+  std::vector<Vec2> frame;          // `exact` in the meshing frame
+  Vec2 center = Vec2::Zero();
+  double cos_r = 1, sin_r = 0;
+  double diameter = 0;
+  double area = 0;
+};
+
+Vec2 to_frame(const Problem& pb, const Vec2& p) {
+  const Vec2 d = p - pb.center;
+  return Vec2(pb.cos_r * d.x() - pb.sin_r * d.y(), pb.sin_r * d.x() + pb.cos_r * d.y());
+}
+
+Vec2 from_frame(const Problem& pb, const Vec2& q) {
+  return Vec2(pb.cos_r * q.x() + pb.sin_r * q.y(), -pb.sin_r * q.x() + pb.cos_r * q.y()) + pb.center;
+}
+
+double segment_distance2(const Vec2& a, const Vec2& b, const Vec2& p, double* t_out = nullptr) {
+  const Vec2 ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  if (t_out) *t_out = t;
+  return (a + t * ab - p).squaredNorm();
+}
+
+Problem prepare(const MeshRequest& rq) {
+  Problem pb;
+  const auto& outline = rq.outline;
+  const size_t n = outline.size();
+  Vec2 lo = outline[0], hi = outline[0];
+  for (const Vec2& p : outline) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  pb.diameter = (hi - lo).norm();
+  pb.center = 0.5 * (lo + hi);
+  pb.area = signed_area(outline);
+  const double rad = rq.rotation_deg * std::numbers::pi / 180;
+  if (rq.rotation_deg != 0) pb.cos_r = std::cos(rad), pb.sin_r = std::sin(rad);
+  // Points closer than this to the outline are on it: a finger put on the edge of the sheet from a
+  // decimal scenario file is rarely exactly on the line.
+  const double snap = 1e-10 * pb.diameter;
+
+  const size_t m = rq.required_points.size();
+  std::vector<int32_t> at_vertex(m, -1);                        // outline vertex it coincides with
+  std::vector<std::vector<std::pair<double, size_t>>> on_edge(n);  // (parameter, required id)
+  std::vector<Vec2> interior;
+  std::vector<int32_t> interior_of(m, -1);
+  for (size_t i = 0; i < m; ++i) {
+    const Vec2& p = rq.required_points[i];
+    if (!std::isfinite(p.x()) || !std::isfinite(p.y()))
+      throw GeometryError("required point " + std::to_string(i) + " has a non-finite coordinate");
+    if (!point_in_polygon(outline, p, snap)) throw GeometryError("point " + fmt_point(p) + " is outside the outline");
+    for (size_t v = 0; v < n && at_vertex[i] < 0; ++v)
+      if ((outline[v] - p).squaredNorm() <= snap * snap) at_vertex[i] = int32_t(v);
+    if (at_vertex[i] >= 0) continue;
+    size_t best_edge = n;
+    double best_d2 = snap * snap, best_t = 0;
+    for (size_t e = 0; e < n; ++e) {
+      double t;
+      const double d2 = segment_distance2(outline[e], outline[(e + 1) % n], p, &t);
+      if (d2 <= best_d2) best_edge = e, best_d2 = d2, best_t = t;
+    }
+    if (best_edge < n) {
+      on_edge[best_edge].emplace_back(best_t, i);
+      continue;
+    }
+    // Interior; the same point given twice gets one vertex.
+    for (size_t j = 0; j < interior.size() && interior_of[i] < 0; ++j)
+      if (interior[j] == p) interior_of[i] = int32_t(j);
+    if (interior_of[i] < 0) {
+      interior_of[i] = int32_t(interior.size());
+      interior.push_back(p);
+    }
+  }
+
+  pb.required_slot.assign(m, -1);
+  std::vector<int32_t> ring_of_vertex(n);
+  for (size_t e = 0; e < n; ++e) {
+    ring_of_vertex[e] = int32_t(pb.exact.size());
+    pb.exact.push_back(outline[e]);
+    auto& splits = on_edge[e];
+    std::sort(splits.begin(), splits.end());
+    for (const auto& [t, i] : splits) {
+      const Vec2& p = rq.required_points[i];
+      if (pb.exact.back() != p) pb.exact.push_back(p);
+      pb.required_slot[i] = int32_t(pb.exact.size()) - 1;
+    }
+  }
+  pb.ring_size = int32_t(pb.exact.size());
+  for (size_t i = 0; i < m; ++i) {
+    if (at_vertex[i] >= 0) pb.required_slot[i] = ring_of_vertex[at_vertex[i]];
+    if (interior_of[i] >= 0) pb.required_slot[i] = pb.ring_size + interior_of[i];
+  }
+  pb.exact.insert(pb.exact.end(), interior.begin(), interior.end());
+  for (const Vec2& p : pb.exact) pb.frame.push_back(to_frame(pb, p));
+  return pb;
+}
+
+// Sparse Steiner points: a jittered square lattice of spacing 3 S aligned with the meshing frame.
+// Used for seed != 0 or a rotated frame: Delaunay refinement alone is nearly invariant under rotation
+// (the circumcentres it inserts rotate with the sheet), so without these a rotated frame or another seed
+// would give the same connectivity.
+std::vector<Point> steiner_lattice(const Problem& pb, const MeshRequest& rq, double size) {
+  std::vector<Point> out;
+  const std::vector<Vec2> ring(pb.frame.begin(), pb.frame.begin() + pb.ring_size);
+  const size_t r = ring.size();
+  Vec2 lo = ring[0], hi = ring[0];
+  for (const Vec2& p : ring) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  const Vec2 extent = hi - lo;
+  // Never more than ~4M lattice sites over the bounding box (thin outlines).
+  const double g = std::max(3 * size, std::sqrt(extent.prod() / 4e6));
+  const int64_t nx = int64_t(extent.x() / g) + 1, ny = int64_t(extent.y() / g) + 1;
+  if (nx < 1 || ny < 1) return out;
+  std::mt19937_64 rng(rq.seed != 0 ? rq.seed : 0x9E3779B97F4A7C15ull);
+  // Uniform in [0, 1) from the raw 64 bits: std::uniform_real_distribution is not bit-exact across
+  // standard libraries, this is.
+  auto uniform = [&] { return double(rng() >> 11) * 0x1.0p-53; };
+  const double ox = uniform() * g, oy = uniform() * g;
+  const double jitter = 0.25 * g;  // per axis, so a site moves at most 0.36 g
+  // A site is kept when its unjittered position is inside and farther than this from the outline, so the
+  // jittered point is inside and at least 0.75 S from the outline: it cannot encroach a boundary segment
+  // of length ≤ S nor make a sliver against it.
+  const double clear = 0.75 * size + jitter * std::sqrt(2.0);
+
+  // Outline edges bucketed in cells of size g (clear < g, so the 3x3 block around a site's cell holds
+  // every edge within `clear`); an edge is registered by sampling it at steps of g/2.
+  std::vector<std::vector<int32_t>> cells(size_t(nx * ny));
+  auto cell_of = [&](const Vec2& p, int64_t& cx, int64_t& cy) {
+    cx = std::clamp<int64_t>(int64_t(std::floor((p.x() - lo.x()) / g)), 0, nx - 1);
+    cy = std::clamp<int64_t>(int64_t(std::floor((p.y() - lo.y()) / g)), 0, ny - 1);
+  };
+  for (size_t e = 0; e < r; ++e) {
+    const Vec2& a = ring[e];
+    const Vec2& b = ring[(e + 1) % r];
+    const int steps = int(std::ceil((b - a).norm() / (0.5 * g))) + 1;
+    int64_t last = -1;
+    for (int k = 0; k <= steps; ++k) {
+      int64_t cx, cy;
+      cell_of(a + (b - a) * (double(k) / steps), cx, cy);
+      if (cy * nx + cx == last) continue;
+      last = cy * nx + cx;
+      for (int64_t y = std::max<int64_t>(0, cy - 1); y <= std::min(ny - 1, cy + 1); ++y)
+        for (int64_t x = std::max<int64_t>(0, cx - 1); x <= std::min(nx - 1, cx + 1); ++x) {
+          auto& c = cells[size_t(y * nx + x)];
+          if (c.empty() || c.back() != int32_t(e)) c.push_back(int32_t(e));
+        }
+    }
+  }
+
+  std::vector<double> crossings;
+  for (int64_t j = 0;; ++j) {
+    const double y = lo.y() + oy + double(j) * g;
+    if (y >= hi.y()) break;
+    // Inside test by scanline: the row's crossings with the outline, sorted (half-open rule on y).
+    crossings.clear();
+    for (size_t e = 0; e < r; ++e) {
+      const Vec2& a = ring[e];
+      const Vec2& b = ring[(e + 1) % r];
+      if ((a.y() > y) != (b.y() > y)) crossings.push_back(a.x() + (y - a.y()) / (b.y() - a.y()) * (b.x() - a.x()));
+    }
+    std::sort(crossings.begin(), crossings.end());
+    size_t passed = 0;
+    for (int64_t i = 0;; ++i) {
+      const double x = lo.x() + ox + double(i) * g;
+      if (x >= hi.x()) break;
+      // Always draw the jitter so each site's value depends only on its position in the lattice.
+      const double jx = (uniform() - 0.5) * 2 * jitter, jy = (uniform() - 0.5) * 2 * jitter;
+      while (passed < crossings.size() && crossings[passed] <= x) ++passed;
+      if (passed % 2 == 0) continue;
+      const Vec2 site(x, y);
+      int64_t cx, cy;
+      cell_of(site, cx, cy);
+      bool ok = true;
+      for (int32_t e : cells[size_t(cy * nx + cx)]) {
+        if (segment_distance2(ring[e], ring[(size_t(e) + 1) % r], site) < clear * clear) {
+          ok = false;
+          break;
+        }
+      }
+      const Vec2 q(x + jx, y + jy);
+      for (size_t k = pb.ring_size; k < pb.frame.size() && ok; ++k)
+        ok = (pb.frame[k] - q).squaredNorm() >= (0.75 * size) * (0.75 * size);
+      if (ok) out.emplace_back(q.x(), q.y());
+    }
+  }
+  return out;
+}
+
+// One constrained Delaunay refinement at edge-length bound `size`; returns the in-domain triangle count.
+long refine(const Problem& pb, const MeshRequest& rq, double aspect_bound, double size, CDT& cdt) {
+  std::vector<CDT::Vertex_handle> ring;
+  ring.reserve(pb.ring_size);
+  for (int32_t i = 0; i < pb.ring_size; ++i) {
+    auto v = cdt.insert(Point(pb.frame[i].x(), pb.frame[i].y()));
+    v->info().exact = i;
+    ring.push_back(v);
+  }
+  for (int32_t i = 0; i < pb.ring_size; ++i) cdt.insert_constraint(ring[i], ring[(i + 1) % pb.ring_size]);
+  for (size_t j = pb.ring_size; j < pb.frame.size(); ++j) {
+    auto v = cdt.insert(Point(pb.frame[j].x(), pb.frame[j].y()));
+    v->info().exact = int32_t(j);
+  }
+  if (rq.seed != 0 || rq.rotation_deg != 0) {
+    const std::vector<Point> sites = steiner_lattice(pb, rq, size);
+    cdt.insert(sites.begin(), sites.end());  // range insertion sorts spatially: fast for many points
+  }
+  Mesher mesher(cdt, Criteria(aspect_bound, size));
+  mesher.refine_mesh();
+  long count = 0;
+  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) count += f->is_in_domain() ? 1 : 0;
+  return count;
+}
+
+// Compact, deterministic output: vertices sorted by pattern position, each triangle starting at its
+// smallest vertex id (orientation kept), triangles sorted. Outline and required vertices get their exact
+// input coordinates back; Steiner vertices are rotated back from the meshing frame.
+void extract(const Problem& pb, CDT& cdt, std::vector<Vec2>& rest, std::vector<Tri>& tri,
+             std::vector<int32_t>& required_vertex) {
+  std::vector<CDT::Vertex_handle> used;
+  std::vector<CDT::Vertex_handle> slot(pb.exact.size());
+  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
+    if (!f->is_in_domain()) continue;
+    for (int k = 0; k < 3; ++k) {
+      auto v = f->vertex(k);
+      if (v->info().id >= 0) continue;
+      v->info().id = int32_t(used.size());
+      used.push_back(v);
+      if (v->info().exact >= 0) slot[v->info().exact] = v;
+    }
+  }
+  std::vector<Vec2> pos(used.size());
+  for (size_t i = 0; i < used.size(); ++i) {
+    const int32_t e = used[i]->info().exact;
+    pos[i] = e >= 0 ? pb.exact[e] : from_frame(pb, Vec2(used[i]->point().x(), used[i]->point().y()));
+  }
+  std::vector<int32_t> order(used.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = int32_t(i);
+  std::sort(order.begin(), order.end(), [&](int32_t a, int32_t b) {
+    if (pos[a].x() != pos[b].x()) return pos[a].x() < pos[b].x();
+    if (pos[a].y() != pos[b].y()) return pos[a].y() < pos[b].y();
+    return a < b;
+  });
+  std::vector<int32_t> remap(used.size());
+  rest.resize(used.size());
+  for (size_t k = 0; k < order.size(); ++k) {
+    remap[order[k]] = int32_t(k);
+    rest[k] = pos[order[k]];
+  }
+  tri.clear();
+  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
+    if (!f->is_in_domain()) continue;
+    Tri t{remap[f->vertex(0)->info().id], remap[f->vertex(1)->info().id], remap[f->vertex(2)->info().id]};
+    std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+    tri.push_back(t);
+  }
+  std::sort(tri.begin(), tri.end());
+  required_vertex.resize(pb.required_slot.size());
+  for (size_t i = 0; i < pb.required_slot.size(); ++i) {
+    const auto v = slot[pb.required_slot[i]];
+    if (v == CDT::Vertex_handle()) throw GeometryError("required point " + std::to_string(i) + " got no vertex");
+    required_vertex[i] = remap[v->info().id];
+  }
+}
+
 }  // namespace
 
 std::vector<Vec2> preset_outline(const std::string& name) {
@@ -185,7 +470,53 @@ bool point_in_polygon(const std::vector<Vec2>& polygon, const Vec2& p, double to
 
 void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vector<Tri>& tri,
                   std::vector<int32_t>& required_vertex) {
-  throw GeometryError("mesh_outline: not implemented yet");
+  const std::string problem = outline_problem(request.outline);
+  if (!problem.empty()) throw GeometryError(problem);
+  if (request.target_triangles < 2 || request.target_triangles > 2'000'000)
+    throw GeometryError("target triangle count " + std::to_string(request.target_triangles) +
+                        " is outside [2, 2000000]");
+  // Above ~30° Delaunay refinement is not guaranteed to terminate.
+  if (!(request.min_angle_deg >= 0 && request.min_angle_deg <= 30))
+    throw GeometryError("minimum angle " + std::to_string(request.min_angle_deg) + " deg is outside [0, 30]");
+  if (!std::isfinite(request.rotation_deg))
+    throw GeometryError("mesh rotation is not finite");
+
+  const Problem prob = prepare(request);
+  // A hair above the requested bound: restoring exact input coordinates after meshing in a rotated frame
+  // moves vertices by ~1e-16 relative, which must not push an angle below the bound.
+  const double angle = request.min_angle_deg > 0 ? std::min(request.min_angle_deg + 0.1, 30.0) : 0.0;
+  const double sin_a = std::sin(angle * std::numbers::pi / 180);
+  const double aspect_bound = sin_a * sin_a;
+
+  const double target = request.target_triangles;
+  // Delaunay refinement with edge bound S yields triangles of about 0.2 S² on average (calibrated on
+  // rectangles); the loop below corrects for the boundary and the required points.
+  double size = std::min(std::sqrt(prob.area / (0.2 * target)), prob.diameter);
+  double too_fine = 0, too_coarse = 0;  // bracket on `size`: counts above / below the target
+  std::unique_ptr<CDT> best;
+  long best_count = -1;
+  for (int round = 0; round < 12; ++round) {
+    auto cdt = std::make_unique<CDT>();
+    const long count = refine(prob, request, aspect_bound, size, *cdt);
+    if (best_count < 0 || std::abs(count - target) < std::abs(best_count - target)) {
+      best_count = count;
+      best = std::move(cdt);
+    }
+    // Aim inside ±8% so the ±20% contract holds with margin; stop early when close enough.
+    if (std::abs(count - target) <= 0.08 * target) break;
+    if (count > target) {
+      if (size >= prob.diameter) break;  // the size bound no longer acts: no coarser mesh exists
+      too_fine = std::max(too_fine, size);
+    } else {
+      too_coarse = too_coarse > 0 ? std::min(too_coarse, size) : size;
+    }
+    double next = size * std::sqrt(double(count) / target);
+    if (too_fine > 0 && too_coarse > 0 && !(next > too_fine && next < too_coarse))
+      next = std::sqrt(too_fine * too_coarse);
+    if (too_coarse > 0 && too_fine > 0 && too_coarse / too_fine < 1 + 1e-6) break;  // a step in count
+    size = std::min(next, prob.diameter);
+  }
+  extract(prob, *best, rest, tri, required_vertex);
 }
 
 }  // namespace pt
