@@ -23,6 +23,10 @@ double fiber_texel(const FiberField& f, int32_t i, int32_t j);
 // Bilinear sample between texel centres at pattern point (u, v), in [0, 1].
 double fiber_sample(const FiberField& f, const Vec2& uv);
 
+// fiber_texel(f, i0 + c, j) for c in [0, count) into out[c], bit-identical, hashing each lattice cell
+// once per row (full-texture exports). Additive to the fixed interface.
+void fiber_row(const FiberField& f, int32_t j, int32_t i0, int32_t count, double* out);
+
 // Continuous procedural value (no texel grid), in [0, 1].
 double fiber_noise(const FiberField& f, const Vec2& uv);
 

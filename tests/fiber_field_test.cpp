@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 namespace pt {
 namespace {
@@ -75,6 +76,16 @@ TEST(FiberField, SampleIsBilinearBetweenCentres) {
   const double expect = 0.25 * (fiber_texel(f, 10, 20) + fiber_texel(f, 11, 20) + fiber_texel(f, 10, 21) +
                                 fiber_texel(f, 11, 21));
   EXPECT_NEAR(fiber_sample(f, mid), expect, 1e-12);
+}
+
+TEST(FiberField, RowEqualsTexels) {
+  FiberField f = field(13);
+  f.origin = Vec2(-0.003, 0.011);
+  for (int j : {-7, 0, 5, 333}) {
+    std::vector<double> row(300);
+    fiber_row(f, j, -40, 300, row.data());
+    for (int c = 0; c < 300; ++c) ASSERT_EQ(row[c], fiber_texel(f, c - 40, j)) << c << "," << j;
+  }
 }
 
 TEST(FiberField, Continuous) {
