@@ -421,7 +421,9 @@ json parse_json_strict(const std::string& text, const std::string& file) {
       const std::string w = e.what();
       where = " (" + w.substr(at, w.find(':', at) - at) + ")";
     }
-    fail(file, "", "malformed JSON at byte " + std::to_string(e.byte) + where + ": " + why);
+    // nlohmann counts bytes from 1; report the 0-based offset that hex editors and `dd skip=` use.
+    const size_t offset = e.byte > 0 ? e.byte - 1 : 0;
+    fail(file, "", "malformed JSON at byte " + std::to_string(offset) + where + ": " + why);
   } catch (const json::exception& e) {
     std::string why = e.what();
     const size_t b = why.find("] ");

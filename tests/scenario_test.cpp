@@ -1,0 +1,344 @@
+// Scenario loading (DESIGN §6): defaults, every key, and one test per kind of bad input. Each bad
+// input must be an InputError whose one-line message names the file and the JSON path or the problem.
+#include "engine/scenario.hpp"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kBadDir = std::string(PT_SOURCE_DIR) + "/tests/data/bad/";
+
+std::string error_of(const std::string& path) {
+  try {
+    pt::load_scenario(path);
+  } catch (const pt::InputError& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    return std::string("wrong exception type: ") + e.what();
+  }
+  return "no error";
+}
+
+std::string error_of_text(const std::string& text, const std::string& name = "inline.json") {
+  try {
+    pt::parse_scenario(text, name);
+  } catch (const pt::InputError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+fs::path temp_file(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("pt_scenario_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir / name;
+}
+
+void write_bytes(const fs::path& path, const std::string& bytes) {
+  std::ofstream f(path, std::ios::binary);
+  f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+const char* kMinimal = R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})";
+
+// ---- good input ----
+
+TEST(Scenario, MinimalFileTakesDefaults) {
+  const pt::Scenario s = pt::parse_scenario(kMinimal, "some/dir/my-sheet.json");
+  EXPECT_EQ(s.name, "my-sheet");  // the file stem
+  EXPECT_EQ(s.path, "some/dir/my-sheet.json");
+  EXPECT_EQ(s.preset, "A6");
+  ASSERT_EQ(s.outline.size(), 4u);
+  EXPECT_DOUBLE_EQ(s.outline[2].x(), 0.105);
+  EXPECT_DOUBLE_EQ(s.outline[2].y(), 0.148);
+  EXPECT_EQ(s.triangles, 400);
+  EXPECT_EQ(s.mesh_seed, 0u);
+  EXPECT_EQ(s.mesh_rotation_deg, 0);
+  const pt::Material m;
+  EXPECT_EQ(s.material.thickness, m.thickness);
+  EXPECT_EQ(s.material.young, m.young);
+  EXPECT_EQ(s.material.fracture_c, m.fracture_c);
+  EXPECT_EQ(s.detail.texture[0], 0);
+  EXPECT_EQ(s.detail.sigma, 1e-4);
+  EXPECT_EQ(s.detail.omega, 0.5);
+  EXPECT_EQ(s.sim.fps, 30);
+  EXPECT_EQ(s.sim.substeps, 10);
+  EXPECT_EQ(s.sim.frames, 90);
+  EXPECT_EQ(s.sim.gravity, pt::Vec3(0, 0, -9.81));
+  ASSERT_EQ(s.fingers.size(), 1u);
+  EXPECT_EQ(s.fingers[0].name, "A");
+  EXPECT_TRUE(s.fingers[0].keys.empty());
+  EXPECT_TRUE(s.hands.empty());
+}
+
+TEST(Scenario, EveryKeyIsRead) {
+  const char* text = R"({
+    "name": "full", "version": 1, "description": "all keys",
+    "sheet": {"outline": [[0,0],[0.148,0],[0.148,0.21],[0.078,0.21],[0.074,0.19],[0.070,0.21],[0,0.21]],
+              "triangles": 300, "mesh_seed": 7, "mesh_rotation_deg": 15},
+    "material": {"thickness": 2e-4, "density": 700, "young": 3e9, "poisson": 0.25, "bending_scale": 2,
+                 "tip_damage": 0.4, "fiber_seed": 9, "fracture_c": 1e4, "speed": 1e-7, "max_step": 0.005,
+                 "damping": 1.5, "fiber_scale": 0.003},
+    "detail": {"texture": [1024, 1456], "sigma": 2e-4, "omega": 0.6},
+    "sim": {"fps": 60, "substeps": 5, "frames": 12, "gravity": [0, -9.81, 0], "iterations": 3},
+    "fingers": [
+      {"name": "A", "at": [0.064, 0.205], "keys": [[0, [0.064, 0.205, 0]], [3, [0.02, 0.30, 0.05]]]},
+      {"name": "B", "at": [0.084, 0.205]}
+    ],
+    "hands": [{"name": "left", "fingers": ["A", "B"],
+               "keys": [[0, {"translate": [0,0,0], "rotate_deg": 0, "axis": [0,1,0]}],
+                        [2, {"translate": [0,0,0.02], "rotate_deg": 40, "axis": [0,1,0]}]]}]
+  })";
+  const pt::Scenario s = pt::parse_scenario(text, "full.json");
+  EXPECT_EQ(s.name, "full");
+  EXPECT_EQ(s.description, "all keys");
+  EXPECT_TRUE(s.preset.empty());
+  EXPECT_EQ(s.outline.size(), 7u);
+  EXPECT_EQ(s.triangles, 300);
+  EXPECT_EQ(s.mesh_seed, 7u);
+  EXPECT_EQ(s.mesh_rotation_deg, 15);
+  EXPECT_EQ(s.material.thickness, 2e-4);
+  EXPECT_EQ(s.material.density, 700);
+  EXPECT_EQ(s.material.young, 3e9);
+  EXPECT_EQ(s.material.poisson, 0.25);
+  EXPECT_EQ(s.material.bending_scale, 2);
+  EXPECT_EQ(s.material.tip_damage, 0.4);
+  EXPECT_EQ(s.material.fiber_seed, 9u);
+  EXPECT_EQ(s.material.fracture_c, 1e4);
+  EXPECT_EQ(s.material.speed, 1e-7);
+  EXPECT_EQ(s.material.max_step, 0.005);
+  EXPECT_EQ(s.material.damping, 1.5);
+  EXPECT_EQ(s.material.fiber_scale, 0.003);
+  EXPECT_EQ(s.detail.texture[0], 1024);
+  EXPECT_EQ(s.detail.texture[1], 1456);
+  EXPECT_EQ(s.detail.sigma, 2e-4);
+  EXPECT_EQ(s.detail.omega, 0.6);
+  EXPECT_EQ(s.sim.fps, 60);
+  EXPECT_EQ(s.sim.substeps, 5);
+  EXPECT_EQ(s.sim.frames, 12);
+  EXPECT_EQ(s.sim.iterations, 3);
+  EXPECT_EQ(s.sim.gravity, pt::Vec3(0, -9.81, 0));
+  ASSERT_EQ(s.fingers.size(), 2u);
+  ASSERT_EQ(s.fingers[0].keys.size(), 2u);
+  EXPECT_EQ(s.fingers[0].keys[1].t, 3);
+  EXPECT_EQ(s.fingers[0].keys[1].position, pt::Vec3(0.02, 0.30, 0.05));
+  ASSERT_EQ(s.hands.size(), 1u);
+  EXPECT_EQ(s.hands[0].fingers, (std::vector<std::string>{"A", "B"}));
+  ASSERT_EQ(s.hands[0].keys.size(), 2u);
+  EXPECT_EQ(s.hands[0].keys[1].translate, pt::Vec3(0, 0, 0.02));
+  EXPECT_EQ(s.hands[0].keys[1].rotate_deg, 40);
+  EXPECT_EQ(s.hands[0].keys[1].axis, pt::Vec3(0, 1, 0));
+}
+
+TEST(Scenario, IntegralFloatsAreIntegers) {
+  const pt::Scenario s = pt::parse_scenario(
+      R"({"sheet": {"preset": "A6", "triangles": 4e2}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})", "x.json");
+  EXPECT_EQ(s.triangles, 400);
+}
+
+TEST(Scenario, FingerOnTheEdgeIsInside) {
+  EXPECT_NO_THROW(pt::parse_scenario(
+      R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.105, 0.148]}, {"name": "B", "at": [0.05, 0]}]})",
+      "edge.json"));
+}
+
+TEST(Scenario, RepositoryScenariosLoad) {
+  const fs::path dir = fs::path(PT_SOURCE_DIR) / "scenarios";
+  if (!fs::exists(dir)) GTEST_SKIP() << "no scenarios/ yet";
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    if (entry.path().extension() != ".json") continue;
+    SCOPED_TRACE(entry.path().string());
+    EXPECT_NO_THROW(pt::load_scenario(entry.path().string()));
+  }
+}
+
+TEST(Scenario, CodeBuiltScenarioIsValidated) {
+  pt::Scenario s;
+  s.preset = "A4";  // outline left to the builder
+  EXPECT_NO_THROW(pt::validate_scenario(s));  // no fingers is fine in code
+  s.fingers.push_back(pt::FingerSpec{"F", pt::Vec2(1.0, 1.0), {}});
+  try {
+    pt::validate_scenario(s);
+    FAIL() << "finger outside accepted";
+  } catch (const pt::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("<scenario>: fingers[0].at: finger F at (1, 1) is outside the sheet"),
+              std::string::npos)
+        << e.what();
+  }
+  s.fingers[0].at = pt::Vec2(0.1, 0.1);
+  s.material.young = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(pt::validate_scenario(s), pt::InputError);
+}
+
+// ---- bad input from fixtures: tests/data/bad/<name>.json ----
+
+struct BadCase {
+  const char* file;     // under tests/data/bad/, without .json
+  const char* expect;   // must appear in the message (the JSON path and the problem)
+};
+
+const BadCase kBadCases[] = {
+    {"malformed", "malformed JSON at byte"},
+    {"empty", "empty file"},
+    {"whitespace_only", "empty file"},
+    {"not_an_object", "expected a JSON object at the top level, got an array"},
+    {"nan_literal", "malformed JSON at byte"},
+    {"number_overflow", "number overflow"},
+    {"duplicate_key", "sheet.triangles: duplicate key"},
+    {"deep_nesting", "nesting deeper than"},
+    {"unknown_key", "sheet.outlin: unknown key"},
+    {"unknown_key_top", "fingerz: unknown key"},
+    {"unknown_key_hand", "hands[0].keys[0][1].rotate: unknown key"},
+    {"wrong_type", "sheet.triangles: expected an integer, got a string"},
+    {"wrong_type_key", "fingers[1].keys[0][1]: expected an array of 3 numbers, got a string"},
+    {"wrong_type_name", "name: expected a string, got a number"},
+    {"wrong_type_bool", "material.density: expected a number, got a boolean"},
+    {"wrong_length_at", "fingers[0].at: expected an array of 2 numbers, got an array of 1"},
+    {"wrong_length_gravity", "sim.gravity: expected an array of 3 numbers, got an array of 2"},
+    {"wrong_length_key", "fingers[0].keys[1]: expected a key [t, value], got an array of 3"},
+    {"wrong_length_texture", "detail.texture: expected an array of 2 integers"},
+    {"self_intersecting", "sheet.outline: outline is not simple"},
+    {"clockwise", "sheet.outline: outline is clockwise"},
+    {"collinear", "sheet.outline: outline vertices are all collinear"},
+    {"repeated_vertex", "sheet.outline: outline vertices 1 and 2 are the same point"},
+    {"two_vertices", "sheet.outline: outline has 2 vertices"},
+    {"finger_outside", "fingers[1].at: finger B at (0.2, 0.05) is outside the sheet"},
+    {"negative_thickness", "material.thickness: must be positive"},
+    {"zero_density", "material.density: must be positive"},
+    {"negative_young", "material.young: must be positive"},
+    {"poisson_half", "material.poisson: must be in [0, 0.5)"},
+    {"tip_damage_above_one", "material.tip_damage: must be in [0, 1]"},
+    {"omega_negative", "detail.omega: must be in [0, 1]"},
+    {"zero_fps", "sim.fps: must be positive"},
+    {"zero_substeps", "sim.substeps: must be at least 1"},
+    {"zero_frames", "sim.frames: must be at least 1"},
+    {"huge_frames", "sim.frames: absurd size"},
+    {"huge_triangles", "sheet.triangles: absurd size 1e+12"},
+    {"fractional_triangles", "sheet.triangles: expected an integer"},
+    {"huge_texture", "detail.texture[0]: absurd size"},
+    {"missing_fingers", "fingers: missing"},
+    {"empty_fingers", "fingers: at least one finger"},
+    {"duplicate_finger", "fingers[1].name: duplicate finger name"},
+    {"hand_unknown_finger", "hands[0].fingers[1]: unknown finger \"C\""},
+    {"keys_not_increasing", "fingers[0].keys[1][0]: key times must increase"},
+    {"zero_axis", "hands[0].keys[0][1].axis: rotation axis must be non-zero"},
+    {"outline_and_preset", "sheet: give either outline or preset, not both"},
+    {"no_outline_nor_preset", "sheet: missing outline"},
+    {"unknown_preset", "sheet.preset: unknown sheet preset \"A7\""},
+    {"missing_sheet", "sheet: missing"},
+    {"unsafe_name", "name: \"../escape\" cannot name an output directory"},
+};
+
+class BadInput : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(BadInput, IsAnInputErrorNamingFileAndProblem) {
+  const std::string path = kBadDir + GetParam().file + ".json";
+  const std::string message = error_of(path);
+  EXPECT_EQ(message.rfind(path + ": ", 0), 0u) << "message does not start with the file: " << message;
+  EXPECT_NE(message.find(GetParam().expect), std::string::npos)
+      << "expected \"" << GetParam().expect << "\" in: " << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos) << "not one line: " << message;
+}
+
+INSTANTIATE_TEST_SUITE_P(Fixtures, BadInput, ::testing::ValuesIn(kBadCases),
+                         [](const ::testing::TestParamInfo<BadCase>& info) { return std::string(info.param.file); });
+
+// The CLI test runs every fixture; this keeps the table above and the directory in step.
+TEST(BadInputFixtures, EveryFixtureHasACase) {
+  std::set<std::string> cases;
+  for (const BadCase& c : kBadCases) cases.insert(c.file);
+  for (const auto& entry : fs::directory_iterator(kBadDir)) {
+    const std::string stem = entry.path().stem().string();
+    EXPECT_TRUE(cases.count(stem)) << entry.path() << " has no case in kBadCases";
+    EXPECT_TRUE(fs::exists(kBadDir + stem + ".json"));
+  }
+  for (const BadCase& c : kBadCases) EXPECT_TRUE(fs::exists(kBadDir + c.file + ".json")) << c.file;
+}
+
+// ---- bad input that is not a file in the repository ----
+
+TEST(BadInput, BinaryGarbageWithNul) {
+  std::string bytes;
+  for (int i = 0; i < 512; ++i) bytes += static_cast<char>((i * 97 + 13) & 0xff);
+  const fs::path path = temp_file("garbage.bin");
+  write_bytes(path, bytes);
+  const std::string message = error_of(path.string());
+  EXPECT_EQ(message.rfind(path.string() + ": ", 0), 0u) << message;
+  EXPECT_NE(message.find("binary data"), std::string::npos) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos);
+}
+
+TEST(BadInput, BinaryGarbageWithoutNulIsOneLineOfText) {
+  std::string bytes = "{\"sheet\": \"";
+  for (int i = 0; i < 256; ++i) bytes += static_cast<char>(0x80 + (i * 31) % 0x80);
+  bytes += "\n\r\x01\x7f";
+  const fs::path path = temp_file("garbage.json");
+  write_bytes(path, bytes);
+  const std::string message = error_of(path.string());
+  EXPECT_EQ(message.rfind(path.string() + ": malformed JSON at byte", 0), 0u) << message;
+  for (const unsigned char c : message) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << "byte " << int(c) << " in " << message;
+}
+
+TEST(BadInput, MissingFile) {
+  const std::string path = kBadDir + "does_not_exist.json";
+  const std::string message = error_of(path);
+  EXPECT_EQ(message.rfind(path + ": cannot open", 0), 0u) << message;
+}
+
+TEST(BadInput, Directory) {
+  const std::string message = error_of(kBadDir);
+  EXPECT_NE(message.find("is a directory"), std::string::npos) << message;
+}
+
+TEST(BadInput, UnreadableFile) {
+  if (::geteuid() == 0) GTEST_SKIP() << "root reads everything";
+  const fs::path path = temp_file("unreadable.json");
+  write_bytes(path, kMinimal);
+  fs::permissions(path, fs::perms::none);
+  const std::string message = error_of(path.string());
+  EXPECT_EQ(message.rfind(path.string() + ": cannot open", 0), 0u) << message;
+}
+
+TEST(BadInput, MalformedJsonReportsByteOffset) {
+  const std::string message = error_of_text("{\"sheet\": {\"preset\": \"A6\",}}", "x.json");
+  EXPECT_NE(message.find("x.json: malformed JSON at byte 26"), std::string::npos) << message;
+}
+
+TEST(BadInput, HandFingerInTwoHands) {
+  const std::string message = error_of_text(
+      R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}],
+          "hands": [{"name": "L", "fingers": ["A"]}, {"name": "R", "fingers": ["A"]}]})",
+      "x.json");
+  EXPECT_NE(message.find("hands[1].fingers[0]: finger \"A\" already belongs to hand \"L\""), std::string::npos)
+      << message;
+}
+
+TEST(BadInput, HugeCoordinates) {
+  const std::string message = error_of_text(
+      R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14], "keys": [[0, [0, 0, 1e200]]]}]})",
+      "x.json");
+  EXPECT_NE(message.find("fingers[0].keys[0][1][2]: absurd coordinate"), std::string::npos) << message;
+}
+
+TEST(BadInput, NegativeSeed) {
+  const std::string message = error_of_text(
+      R"({"sheet": {"preset": "A6", "mesh_seed": -3}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})", "x.json");
+  EXPECT_NE(message.find("sheet.mesh_seed: must be at least 0"), std::string::npos) << message;
+}
+
+TEST(BadInput, UnsupportedVersion) {
+  const std::string message = error_of_text(
+      R"({"version": 2, "sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})", "x.json");
+  EXPECT_NE(message.find("version: unsupported scenario version 2"), std::string::npos) << message;
+}
+
+}  // namespace
