@@ -18,6 +18,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace pt {
@@ -313,6 +314,11 @@ bool collapse_ok(const Cut& C, int32_t v, int32_t q, double& quality) {
     quality = std::min(quality, min_angle(a, b, c));
   }
   if (removed < 0) return false;
+  // The vanishing triangle must not be the last one of its apex, or of q when v has no other to hand over
+  // (a vertex left without triangles).
+  // It may be v's only one: a sliver (a, v, b) along a straight tear simply disappears, the other lip's
+  // re-based triangles cover its area.
+  if (C.fan(apex).size() < 2 || (C.fan(q).size() < 2 && fan.size() < 2)) return false;
   std::vector<int32_t> nv = C.neighbours(v), nq = C.neighbours(q), common;
   std::set_intersection(nv.begin(), nv.end(), nq.begin(), nq.end(), std::back_inserter(common));
   return common.size() == 1 && common[0] == apex;
@@ -383,19 +389,26 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
     const double inside = cross2(B - A, next - A) / ab_len;  // distance of next from ab, > 0 on cur's side
     if (inside >= -r_edge) {
       // `next` is in this triangle: snap it to a vertex, onto an edge, or insert it (1 → 3).
+      // The snap radius of a corner is a fraction of its shorter edge in this triangle: the slivers a
+      // nearby point would create are thin relative to those edges.
+      const double l_ca = (A - pc).norm(), l_cb = (B - pc).norm();
       int32_t snap_v = -1;
-      double best = r_vertex;
-      for (int32_t u : {a, b})
-        if (snappable(u) && (C.r(u) - next).norm() < best) {
-          best = (C.r(u) - next).norm();
+      double best = std::numeric_limits<double>::infinity();
+      for (int32_t u : {a, b}) {
+        const double radius = params.snap_fraction * std::min(ab_len, u == a ? l_ca : l_cb);
+        const double dist = (C.r(u) - next).norm();
+        if (snappable(u) && dist < radius && dist < best) {
+          best = dist;
           snap_v = u;
         }
+      }
       if (snap_v >= 0) {
         path.push_back(snap_v);
         reached_boundary = C.boundary_vertex(snap_v);
         break;
       }
-      if (cur != p && dn < r_vertex) break;  // the walk already stands on a vertex close to next
+      // The walk already stands on a vertex close to next.
+      if (cur != p && dn < params.snap_fraction * std::min(l_ca, l_cb)) break;
       // Nearest edge of the triangle (edges of the start vertex's open fan excluded).
       const std::array<std::pair<int32_t, int32_t>, 3> edges{{{cur, a}, {a, b}, {b, cur}}};
       int32_t best_edge = -1;

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <cstdio>
 #include <random>
 #include <sstream>
 
@@ -333,7 +334,8 @@ TEST(Remeshing, FingerAndTipIdsFollowRemovedVertices) {
 }
 
 TEST(Remeshing, RandomTearSequencesKeepInvariants) {
-  int cuts = 0, boundary_hits = 0;
+  int cuts = 0, boundary_hits = 0, stuck = 0, removals = 0, kept_straight = 0;
+  double worst_miss = 0;
   for (int seq = 0; seq < 200; ++seq) {
     std::mt19937_64 rng(1000 + seq);
     std::uniform_real_distribution<double> uni(0.0, 1.0);
@@ -347,19 +349,32 @@ TEST(Remeshing, RandomTearSequencesKeepInvariants) {
     Vec2 dir(0, -1);
     for (int k = 0; k < 10; ++k) {
       CutResult r;
-      Vec2 d;
+      Vec2 d, target;
       for (int attempt = 0; attempt < 8 && !r.cut; ++attempt) {
         const double turn = (uni(rng) * 2 - 1) * std::numbers::pi / 3;
         // Straight continuations are frequent in practice: exercise the removal of p.
         d = uni(rng) < 0.3 ? dir : Vec2(Eigen::Rotation2Dd(turn) * dir);
         const double len = cell * (0.05 + 1.5 * uni(rng));
-        r = cut_tear_segment(tip, s.verts.rest[tip] + len * d, prev, seq, RemeshParams{}, s);
+        target = s.verts.rest[tip] + len * d;
+        r = cut_tear_segment(tip, target, prev, seq, RemeshParams{}, s);
         if (!r.cut) {
           ASSERT_EQ(check_mesh_invariants(s, area), "");
         }
       }
-      if (!r.cut) break;
+      if (!r.cut) {
+        ++stuck;
+        break;
+      }
       ++cuts;
+      removals += r.removed_vertices > 0;
+      const double turn_angle = std::acos(std::clamp(prev.dot(d), -1.0, 1.0));
+      kept_straight += prev.squaredNorm() > 0 && turn_angle <= 0.1 && r.removed_vertices == 0;
+      // The tip is where it was asked, up to a snap (a quarter of a local edge, at most a cell diagonal).
+      if (!r.reached_boundary) {
+        const double miss = (r.end - target).norm() / std::max(kW / nx, kH / ny);
+        EXPECT_LE(miss, 0.25 * 1.5 * std::sqrt(2.0)) << seq << " " << k;
+        worst_miss = std::max(worst_miss, miss);
+      }
       expect_valid_after_cut(s, area, r, seq);
       if (::testing::Test::HasFatalFailure()) {
         ADD_FAILURE() << "sequence " << seq << " cut " << k;
@@ -375,6 +390,69 @@ TEST(Remeshing, RandomTearSequencesKeepInvariants) {
       dir = d;
     }
   }
+  std::printf("cuts %d, reached boundary %d, p removed %d, straight but kept %d, no cut after 8 directions %d, "
+              "worst tip miss %.3f cells\n", cuts, boundary_hits, removals, kept_straight, stuck, worst_miss);
   EXPECT_GT(cuts, 1000);
+  EXPECT_GT(removals, 100);
   EXPECT_GT(boundary_hits, 0);
+}
+
+// Many tears on one sheet from random boundary vertices (outline, lips, kept corners, tips): segments
+// cross earlier lips (the sheet falls apart into pieces), start at the corners of the rectangle, run along
+// grid lines. A refused cut must leave the sheet unchanged.
+TEST(Remeshing, RandomTearsFromAnyBoundaryVertex) {
+  int cuts = 0, refused = 0, max_pieces = 0;
+  double worst_angle = std::numbers::pi;
+  for (int sheet_index = 0; sheet_index < 60; ++sheet_index) {
+    std::mt19937_64 rng(5000 + sheet_index);
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    const int nx = 5 + sheet_index % 6, ny = 5 + (sheet_index / 6) % 6;
+    Sheet s = make_grid(nx, ny, 0.25 * uni(rng), 300 + sheet_index);
+    const double area = total_rest_area(s.tris);
+    const double cell = std::min(kW / nx, kH / ny);
+    for (int k = 0; k < 15; ++k) {
+      std::vector<int32_t> boundary;
+      for (int32_t v = 0; v < s.verts.size(); ++v)
+        if (s.verts.flags[v] & kBoundary) boundary.push_back(v);
+      const int32_t p = boundary[static_cast<size_t>(uni(rng) * boundary.size()) % boundary.size()];
+      // Mostly towards the inside (the interior bisector at p), sometimes anywhere.
+      const Vec2 rp = s.verts.rest[p];
+      const Vec2 tn = (s.verts.rest[s.topo.boundary_next[p]] - rp).normalized();
+      const double angle = interior_pattern_angle(s.topo, s.verts.rest, p);
+      const double rot = uni(rng) < 0.8 ? angle * (0.1 + 0.8 * uni(rng)) : 2 * std::numbers::pi * uni(rng);
+      const Vec2 d = Eigen::Rotation2Dd(rot) * tn;
+      const Vec2 prev = uni(rng) < 0.5 ? Vec2::Zero() : Vec2(Eigen::Rotation2Dd(0.2 * (uni(rng) - 0.5)) * d);
+      const double len = cell * (0.02 + 3 * uni(rng));
+      const Sheet before = s;
+      const CutResult r = cut_tear_segment(p, rp + len * d, prev, k, RemeshParams{}, s);
+      if (!r.cut) {
+        ++refused;
+        ASSERT_EQ(s.tris.tri, before.tris.tri);
+        ASSERT_EQ(s.verts.rest, before.verts.rest);
+        continue;
+      }
+      ++cuts;
+      expect_valid_after_cut(s, area, r, k);
+      if (::testing::Test::HasFatalFailure()) {
+        ADD_FAILURE() << "sheet " << sheet_index << " cut " << k << " p " << p << " flags " << int(before.verts.flags[p])
+                      << " reached " << r.reached_boundary << " removed " << r.removed_vertices << " new "
+                      << r.new_vertices << " n " << before.verts.size() << " pieces " << before.topo.piece_count
+                      << " next " << (rp + len * d).transpose() << " rp " << rp.transpose() << " end " << r.end.transpose();
+        return;
+      }
+      max_pieces = std::max(max_pieces, s.topo.piece_count);
+    }
+    for (const Tri& t : s.tris.tri) {
+      const Vec2 &a = s.verts.rest[t[0]], &b = s.verts.rest[t[1]], &c = s.verts.rest[t[2]];
+      auto ang = [](const Vec2& p, const Vec2& q, const Vec2& w) {
+        const Vec2 u = q - p, v = w - p;
+        return std::atan2(std::abs(u.x() * v.y() - u.y() * v.x()), u.dot(v));
+      };
+      worst_angle = std::min({worst_angle, ang(a, b, c), ang(b, c, a), ang(c, a, b)});
+    }
+  }
+  std::printf("cuts %d, refused %d, max pieces %d, smallest angle %.3f deg\n", cuts, refused, max_pieces,
+              worst_angle * 180 / std::numbers::pi);
+  EXPECT_GT(cuts, 500);
+  EXPECT_GT(max_pieces, 2);
 }
