@@ -8,6 +8,7 @@
 #include "engine/result_writer.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
+#include "engine/texture_export.hpp"
 #include "systems/meshing.hpp"
 
 #include <CLI/CLI.hpp>
@@ -158,7 +159,6 @@ std::string plural(int64_t n, const char* word) {
 int run_command(const RunOptions& opt) {
   pt::Scenario scenario = pt::load_scenario(opt.scenario);
   if (opt.frames >= 0) scenario.sim.frames = opt.frames;
-  if (opt.png) throw UsageError("--png: texture export is not available yet");
   OutputDir out(opt.out.empty() ? fs::path("out") / scenario.name : fs::path(opt.out));
 
   pt::EngineOptions engine;
@@ -192,6 +192,12 @@ int run_command(const RunOptions& opt) {
     const fs::path svg = out.path() / "pattern.svg";
     pt::write_svg(sim, svg.string());
     written.push_back(svg.string());
+  }
+  if (opt.png) {
+    const fs::path png = out.path() / "pattern.png";
+    pt::write_pattern_png(png.string(), scenario.outline, sim.sheet().tears, sim.carve_state(), sim.detail_params(),
+                          sim.fiber());
+    written.push_back(png.string());
   }
   if (opt.obj) {
     out.end_frames();
@@ -287,7 +293,7 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--threads", run.threads, "worker threads (default: 2)")->check(CLI::Range(1, 1024));
   run_cmd->add_flag("--obj", run.obj, "write DIR/frames/frame_NNNN.obj for every frame");
   run_cmd->add_flag("--svg", run.svg, "write DIR/pattern.svg (mesh, regions, candidates, fingers, tears)");
-  run_cmd->add_flag("--png", run.png, "write the carved texture as PNG");
+  run_cmd->add_flag("--png", run.png, "write DIR/pattern.png (the pattern with detailed tears at texture resolution)");
 
   std::string check_path;
   CLI::App* check_cmd = app.add_subcommand("check", "validate a scenario only");

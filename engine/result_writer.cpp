@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
 #include <cstdarg>
 #include <cmath>
 #include <cstdio>
@@ -117,6 +118,56 @@ std::vector<std::pair<int32_t, int32_t>> boundary_edges(const std::vector<Tri>& 
     i = j;
   }
   return out;
+}
+
+// JSON text for people and diff tools: objects one key per line, arrays of scalars (points, short
+// lists) on one line, doubles in their shortest round-trip form (0.111, not 0.11099999999999999).
+void append_number(const ojson& j, std::string& out) {
+  if (!j.is_number_float()) {
+    out += j.dump();
+    return;
+  }
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, j.get<double>());
+  out.append(buf, r.ptr);
+}
+
+bool is_scalar(const ojson& j) { return !j.is_array() && !j.is_object(); }
+
+void append_pretty(const ojson& j, int indent, std::string& out) {
+  if (j.is_number()) return append_number(j, out);
+  if (is_scalar(j)) {
+    out += j.dump();
+    return;
+  }
+  if (j.empty()) {
+    out += j.is_array() ? "[]" : "{}";
+    return;
+  }
+  const bool all_scalar = std::all_of(j.begin(), j.end(), [](const ojson& e) { return is_scalar(e); });
+  if (all_scalar && (j.is_array() || j.size() <= 4)) {
+    out += j.is_array() ? "[" : "{";
+    bool first = true;
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      out += first ? "" : ", ";
+      first = false;
+      if (j.is_object()) out += ojson(it.key()).dump() + ": ";
+      append_pretty(*it, indent, out);
+    }
+    out += j.is_array() ? "]" : "}";
+    return;
+  }
+  const std::string pad(static_cast<size_t>(indent + 2), ' ');
+  out += j.is_array() ? "[\n" : "{\n";
+  bool first = true;
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    out += first ? "" : ",\n";
+    first = false;
+    out += pad;
+    if (j.is_object()) out += ojson(it.key()).dump() + ": ";
+    append_pretty(*it, indent + 2, out);
+  }
+  out += "\n" + std::string(static_cast<size_t>(indent), ' ') + (j.is_array() ? "]" : "}");
 }
 
 }  // namespace
@@ -248,7 +299,9 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out) {
 bool write_result_json(const Simulation& sim, const std::string& path) {
   ojson result;
   const bool ok = build_result_json(sim, result);
-  write_file_atomically(path, result.dump(2) + "\n");
+  std::string text;
+  append_pretty(result, 0, text);
+  write_file_atomically(path, text + "\n");
   return ok;
 }
 
@@ -349,7 +402,14 @@ void write_svg(const Simulation& sim, const std::string& path) {
 
 void write_obj(const Simulation& sim, const std::string& path) {
   const Sheet& sheet = sim.sheet();
-  const Box box = pattern_box(sim);
+  // vt in the texture's frame (origin, pixel size × resolution) so the PNGs of engine/texture_export.hpp
+  // map onto the mesh; the outline's bounding box when there is no texture.
+  const DetailParams& dp = sim.detail_params();
+  Box box = pattern_box(sim);
+  if (dp.width > 0 && dp.height > 0 && dp.pixel_size > 0) {
+    box.lo = dp.origin;
+    box.hi = dp.origin + dp.pixel_size * Vec2(dp.width, dp.height);
+  }
   const Vec2 size = (box.hi - box.lo).cwiseMax(Vec2::Constant(1e-12));
   std::string s;
   s.reserve(64 + sheet.verts.size() * 64 + sheet.tris.size() * 32);

@@ -25,8 +25,8 @@ bool write_result_json(const Simulation& sim, const std::string& path);
 // detail thin red) and active tips. Throws std::runtime_error on I/O failure.
 void write_svg(const Simulation& sim, const std::string& path);
 
-// The mesh now: v = 3D positions, vt = pattern positions normalised by the outline's bounding box (the
-// texture's extent), f = triangles. Throws std::runtime_error on I/O failure.
+// The mesh now: v = 3D positions, vt = pattern positions normalised to the texture's extent (the
+// outline's bounding box, DESIGN §5.6), f = triangles. Throws std::runtime_error on I/O failure.
 void write_obj(const Simulation& sim, const std::string& path);
 
 // Writes `content` to `path` through a temporary file in the same directory and a rename.
