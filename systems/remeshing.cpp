@@ -409,7 +409,8 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
       }
       // The walk already stands on a vertex close to next.
       if (cur != p && dn < params.snap_fraction * std::min(l_ca, l_cb)) break;
-      // Nearest edge of the triangle (edges of the start vertex's open fan excluded).
+      // Nearest edge of the triangle whose interior faces next (edges of the start vertex's open fan
+      // excluded: the tear cannot run along the boundary).
       const std::array<std::pair<int32_t, int32_t>, 3> edges{{{cur, a}, {a, b}, {b, cur}}};
       int32_t best_edge = -1;
       double best_dist = 0, best_s = 0;
@@ -417,7 +418,8 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
         const auto [u, w] = edges[k];
         if ((u == cur || w == cur) && C.boundary_edge(u, w)) continue;
         const Vec2 U = C.r(u), W = C.r(w);
-        const double s = std::clamp((next - U).dot(W - U) / (W - U).squaredNorm(), 0.0, 1.0);
+        const double s = (next - U).dot(W - U) / (W - U).squaredNorm();
+        if (!(s > 0 && s < 1)) continue;  // nearest to a corner, not to the edge
         const double dist = (U + s * (W - U) - next).norm();
         if (best_edge < 0 || dist < best_dist) {
           best_edge = k;
@@ -425,10 +427,11 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
           best_s = s;
         }
       }
-      // Snap onto the edge when very close, or when a 1 → 3 insertion would leave a sliver that the snap
-      // avoids (RemeshParams::min_angle_deg).
+      // Snap onto the edge when very close (a 1 → 3 insertion would be a sliver, or flat when next is on
+      // the edge), or when the insertion would make an angle below min_angle_deg and a snap well inside
+      // the edge avoids it.
       bool on_edge = best_edge >= 0 && best_dist < r_edge;
-      if (!on_edge && best_edge >= 0 && best_dist < 0.5 * r_vertex) {
+      if (!on_edge && best_edge >= 0 && best_dist < 0.5 * r_vertex && best_s > 0.1 && best_s < 0.9) {
         const double worst = std::min({min_angle(pc, A, next), min_angle(A, B, next), min_angle(B, pc, next)});
         on_edge = worst < params.min_angle_deg * std::numbers::pi / 180.0;
       }
