@@ -20,6 +20,9 @@ struct IntegrateParams {
   double damping = 2.0;           // 1/s
   RangeRunner run = run_serial;   // parallel loops over triangles / vertices (engine supplies oneTBB)
   int32_t grain = 512;
+  // Weight of the corotated area term λ/2 tr(RᵀF − I)² in the local step (1: the energy of membrane_forces,
+  // 0: plain ARAP, the λ term is then ignored by the integrator). See integrate.cpp.
+  double area_term = 1.0;
 };
 
 // Opaque solver state (factorisation, scratch). One per sheet.
@@ -33,10 +36,23 @@ using ProjectiveSolverPtr = std::unique_ptr<ProjectiveSolver, ProjectiveSolverDe
 // call; otherwise returns the existing one untouched.
 void prepare_projective_solver(const Sheet& sheet, const IntegrateParams& params, ProjectiveSolverPtr& solver);
 
+// Health and counters of a solver (read after integrate_substep).
+struct ProjectiveStats {
+  bool ok = true;                 // the last substep succeeded (false: the state was left unchanged)
+  bool factorization_ok = true;   // the last factorisation succeeded
+  int64_t factorizations = 0;     // how many times the matrix was (re)factorised
+  int64_t substeps = 0;
+  int64_t failures = 0;           // substeps rejected (failed solve or non-finite result)
+};
+const ProjectiveStats& projective_solver_stats(const ProjectiveSolver& solver);
+
 // Held vertices for this substep: `held[i]` vertex id, `held_target[i]` its prescribed position.
 // One backward Euler substep: updates sheet.verts.x and .v. Forces (corner_force, force) are NOT updated
 // here; the force system is run after integration for reporting and clustering.
-void integrate_substep(const IntegrateParams& params, const std::vector<int32_t>& held,
+// Returns false (and leaves x, v unchanged) if the solve failed or produced a non-finite value. If `held`
+// differs from the set prepare_projective_solver saw (fingers' vertices), the solver is rebuilt here.
+// The held set of prepare_projective_solver is {Finger::vertex ≥ 0}; material changes also rebuild.
+bool integrate_substep(const IntegrateParams& params, const std::vector<int32_t>& held,
                        const std::vector<Vec3>& held_target, ProjectiveSolver& solver, Sheet& sheet);
 
 }  // namespace pt
