@@ -27,6 +27,18 @@ struct CutResult {
 // otherwise removed from the lips. New vertices get 3D positions by barycentric interpolation and zero
 // velocity. Vertex ids held by fingers and tips are remapped; tips are not added or removed here.
 // Ends with refresh_after_topology_change. `next` is clipped at the first boundary crossing.
+// Details (systems/remeshing.cpp):
+//   - snapping: an edge crossing within snap_fraction of an edge's length from one of its ends goes through
+//     that vertex; the end snaps to a corner closer than snap_fraction of the corner's shorter edge, or onto
+//     an edge when very close to it (or when that avoids an angle below min_angle_deg). `end` is the result.
+//   - p is removed only when both lips come back along the same line (p was a tip between the two copies of
+//     the previous tear vertex), no finger holds it, and both collapses keep every triangle CCW; removal
+//     conserves the total pattern area exactly. A Tip whose vertex was p then points at the vertex p merged
+//     into (the caller moves it to tip_vertex).
+//   - flags: kNew is cleared everywhere and set on the vertices this cut created; kTip moves from p to the
+//     new tip (none when the tear reached the boundary). Lip vertices (both copies) get Vertices::tear.
+//   - cut == false leaves the sheet bit-identical (p not on the boundary, d outside the sheet or along its
+//     boundary, degenerate segment).
 CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_direction, int32_t tear_id,
                            const RemeshParams& params, Sheet& sheet);
 

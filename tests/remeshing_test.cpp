@@ -333,6 +333,28 @@ TEST(Remeshing, FingerAndTipIdsFollowRemovedVertices) {
   EXPECT_LT(s.tips.back().vertex, s.verts.size());
 }
 
+// A finger holds the tip: a straight continuation keeps it (the finger's vertex must not disappear), and
+// the finger stays on the original id at the same place.
+TEST(Remeshing, HeldTipIsNotRemoved) {
+  Sheet s = make_grid(8, 8, 0.1, 8);
+  const double area = total_rest_area(s.tris);
+  const Vec2 d = Vec2(0.05, -1).normalized();
+  const int32_t p = notch_vertex(8, 8);
+  const CutResult r1 = cut_tear_segment(p, s.verts.rest[p] + 0.03 * d, Vec2::Zero(), 0, RemeshParams{}, s);
+  ASSERT_TRUE(r1.cut);
+  Finger f;
+  f.vertex = r1.tip_vertex;
+  s.fingers.push_back(f);
+  const Vec2 held = s.verts.rest[r1.tip_vertex];
+  const CutResult r2 = cut_tear_segment(r1.tip_vertex, r1.end + 0.03 * d, d, 0, RemeshParams{}, s);
+  ASSERT_TRUE(r2.cut);
+  expect_valid_after_cut(s, area, r2, 0);
+  EXPECT_EQ(r2.removed_vertices, 0);
+  EXPECT_EQ(s.fingers[0].vertex, r1.tip_vertex);
+  EXPECT_EQ(s.verts.rest[s.fingers[0].vertex], held);
+  EXPECT_EQ(count_at(s, held), 2);
+}
+
 TEST(Remeshing, RandomTearSequencesKeepInvariants) {
   int cuts = 0, boundary_hits = 0, stuck = 0, removals = 0, kept_straight = 0;
   double worst_miss = 0;
