@@ -1,0 +1,756 @@
+// papertear-viewer [SCENARIO] [--frames N --screenshot FILE.png] [--threads N]   (DESIGN §7, issue 7)
+//
+// Mouse: left click on the sheet puts a finger there (a vertex is inserted at the picked pattern point)
+// and dragging moves it in the view plane (Shift: in depth); left drag on a finger grabs it (and every
+// selected finger with it); Ctrl+click toggles a finger in the selection; right click on a finger lets
+// go; left drag elsewhere orbits, right/middle drag elsewhere pans, wheel zooms.
+// Keys: Space play/pause, N step, R reset, G select every finger on the sheet (a hand), Q/E rotate the
+// selected fingers about their centroid around the view axis, Esc clear the selection, W wireframe,
+// Ctrl+S record the session to a scenario file, F frame the sheet.
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/gl.h>
+#include <GL/glext.h>
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+
+#include <imgui.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+#include <stb_image_write.h>
+
+#include "apps/viewer/recorder.hpp"
+#include "apps/viewer/renderer.hpp"
+#include "engine/picking.hpp"
+#include "engine/scenario.hpp"
+#include "engine/simulation.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+using namespace pt;
+using namespace pt::viewer;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr int kExitOk = 0, kExitInternal = 1, kExitInput = 2;
+constexpr double kPi = 3.14159265358979323846;
+
+// The built-in scenario: an A4 sheet with a small notch in the middle of its top edge, no fingers.
+const char* kDefaultScenario = R"({
+  "name": "viewer-default",
+  "description": "A4 sheet with a 1 cm notch in its top edge; put fingers on it with the mouse.",
+  "sheet": { "outline": [[0,0],[0.21,0],[0.21,0.297],[0.109,0.297],[0.105,0.287],[0.101,0.297],[0,0.297]],
+             "triangles": 1000 },
+  "sim": { "fps": 30, "substeps": 10, "frames": 300, "gravity": [0, 0, -9.81] },
+  "fingers": []
+})";
+
+struct Options {
+  std::string scenario;
+  int frames = -1;
+  std::string screenshot;
+  int threads = 2;
+  int width = 1280, height = 800;
+  int samples = 0;  // MSAA samples (llvmpipe: 4× costs several times the fill time)
+};
+
+void usage() {
+  std::fprintf(stderr,
+               "usage: papertear-viewer [SCENARIO] [--frames N] [--screenshot FILE.png] [--threads N] "
+               "[--size WxH] [--msaa N]\n");
+}
+
+bool parse_args(int argc, char** argv, Options& o) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&](const char* what) -> const char* {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "papertear-viewer: %s needs a value\n", what);
+        return nullptr;
+      }
+      return argv[++i];
+    };
+    auto number = [&](const char* s, int lo, int hi, int& out) {
+      char* end = nullptr;
+      const long v = std::strtol(s, &end, 10);
+      if (!s[0] || *end || v < lo || v > hi) {
+        std::fprintf(stderr, "papertear-viewer: %s: expected an integer in [%d, %d], got \"%s\"\n", a.c_str(), lo, hi, s);
+        return false;
+      }
+      out = static_cast<int>(v);
+      return true;
+    };
+    if (a == "--frames") {
+      const char* v = value("--frames");
+      if (!v || !number(v, 0, 1000000, o.frames)) return false;
+    } else if (a == "--screenshot") {
+      const char* v = value("--screenshot");
+      if (!v) return false;
+      o.screenshot = v;
+    } else if (a == "--threads") {
+      const char* v = value("--threads");
+      if (!v || !number(v, 1, 256, o.threads)) return false;
+    } else if (a == "--msaa") {
+      const char* v = value("--msaa");
+      if (!v || !number(v, 0, 16, o.samples)) return false;
+    } else if (a == "--size") {
+      const char* v = value("--size");
+      if (!v || std::sscanf(v, "%dx%d", &o.width, &o.height) != 2 || o.width < 64 || o.height < 64 ||
+          o.width > 8192 || o.height > 8192) {
+        std::fprintf(stderr, "papertear-viewer: --size: expected WxH\n");
+        return false;
+      }
+    } else if (a == "-h" || a == "--help") {
+      usage();
+      std::exit(kExitOk);
+    } else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "papertear-viewer: unknown option %s\n", a.c_str());
+      return false;
+    } else if (o.scenario.empty()) {
+      o.scenario = a;
+    } else {
+      std::fprintf(stderr, "papertear-viewer: more than one scenario (%s)\n", a.c_str());
+      return false;
+    }
+  }
+  if (!o.screenshot.empty() && o.frames < 0) o.frames = 60;
+  return true;
+}
+
+Scenario load_initial(const std::string& path) {
+  if (!path.empty()) return load_scenario(path);
+  for (const fs::path& p : {fs::path("scenarios/demo.json"), fs::path(PT_SOURCE_DIR) / "scenarios/demo.json"})
+    if (fs::exists(p)) return load_scenario(p.string());
+  return parse_scenario(kDefaultScenario, "<built-in default>");
+}
+
+// A ring buffer of the last samples of one timing series, for ImGui::PlotLines.
+struct Series {
+  std::array<float, 240> v{};
+  int head = 0, count = 0;
+  void add(double x) {
+    v[head] = static_cast<float>(x);
+    head = (head + 1) % static_cast<int>(v.size());
+    count = std::min(count + 1, static_cast<int>(v.size()));
+  }
+  float max() const { return count ? *std::max_element(v.begin(), v.end()) : 0.f; }
+  float avg() const {
+    float s = 0;
+    for (float x : v) s += x;
+    return count ? s / count : 0.f;
+  }
+};
+
+struct Drag {
+  enum Mode { None, Finger, Orbit, Pan } mode = None;
+  double x0 = 0, y0 = 0, last_x = 0, last_y = 0;
+  int finger = -1;
+  Vec3 plane_point = Vec3::Zero();            // the grabbed finger's target at the press
+  std::vector<std::pair<int, Vec3>> start;    // moved fingers and their targets at the press
+  bool moved = false;
+};
+
+struct App {
+  Options opt;
+  GLFWwindow* window = nullptr;
+  Scenario scenario;        // what Reset rebuilds from (parameters applied on reset are written here)
+  std::unique_ptr<Simulation> sim;
+  Picker picker;
+  Renderer renderer;
+  Camera camera;
+  Drag drag;
+  std::set<int> selected;
+  bool playing = true, step_once = false, wireframe = false, show_pattern = true;
+  int finger_counter = 0;
+  std::array<Series, 5> series;  // physics, geometry, tearing, carving, frame
+  Series sim_ms, render_ms, sheet_ms, ui_ms;
+  double last_pick_us = 0, max_pick_us = 0;
+  int picks = 0;
+  char record_path[512] = {0};
+  std::string status;
+  double status_until = 0;
+  bool pending_reset_params = false;
+  // Parameters that take effect on Reset (the engine copies them when it builds a sheet).
+  double thickness = 1e-4, speed = 2e-7, max_step = 0.01, sigma = 1e-4, omega = 0.5;
+
+  void say(const std::string& s) {
+    status = s;
+    status_until = glfwGetTime() + 6.0;
+    std::fprintf(stderr, "papertear-viewer: %s\n", s.c_str());
+  }
+
+  void reset() {
+    scenario.material.thickness = thickness;
+    scenario.material.speed = speed;
+    scenario.material.max_step = max_step;
+    scenario.detail.sigma = sigma;
+    scenario.detail.omega = omega;
+    EngineOptions eo;
+    eo.threads = opt.threads;
+    sim = std::make_unique<Simulation>(scenario, eo);
+    renderer.load_sheet(*sim);
+    picker.update(sim->sheet());
+    selected.clear();
+    drag = Drag{};
+    finger_counter = 0;
+    pending_reset_params = false;
+    for (Series& s : series) s = Series{};
+  }
+
+  void take_parameters_from_scenario() {
+    thickness = scenario.material.thickness;
+    speed = scenario.material.speed;
+    max_step = scenario.material.max_step;
+    sigma = scenario.detail.sigma;
+    omega = scenario.detail.omega;
+    std::string base = scenario.name.empty() ? "session" : scenario.name;
+    std::snprintf(record_path, sizeof record_path, "%s-session.json", base.c_str());
+  }
+
+  // --- simulation ---------------------------------------------------------------------------------------
+
+  void advance() {
+    const auto t0 = Clock::now();
+    sim->step();
+    sim_ms.add(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    const FrameProfile& p = sim->last_profile();
+    series[0].add(p.physics());
+    series[1].add(p.geometry());
+    series[2].add(p.tearing());
+    series[3].add(p.carving);
+    series[4].add(p.frame);
+  }
+
+  // --- fingers ------------------------------------------------------------------------------------------
+
+  // The position a finger is heading to: its last key (set by move_finger), else its target now.
+  Vec3 finger_goal(int i) const {
+    const Finger& f = sim->sheet().fingers[i];
+    return (!f.keys.empty() && f.hand < 0) ? f.keys.back().position : f.target;
+  }
+
+  Vec3 finger_position(int i) const {
+    const Finger& f = sim->sheet().fingers[i];
+    return f.vertex >= 0 ? sim->sheet().verts.x[f.vertex] : f.target;
+  }
+
+  bool finger_active(int i) const {
+    const Finger& f = sim->sheet().fingers[i];
+    return f.vertex >= 0 && !f.released;
+  }
+
+  // The active finger drawn nearest to window pixel (x, y), within `radius` pixels, or −1.
+  int finger_at(double x, double y, double radius = 14) const {
+    int best = -1;
+    double best_d = radius * radius;
+    for (int i = 0; i < static_cast<int>(sim->sheet().fingers.size()); ++i) {
+      if (!finger_active(i)) continue;
+      double px, py;
+      if (!camera.project(finger_position(i), px, py)) continue;
+      const double d = (px - x) * (px - x) + (py - y) * (py - y);
+      if (d < best_d) {
+        best_d = d;
+        best = i;
+      }
+    }
+    return best;
+  }
+
+  void move(int i, const Vec3& target) {
+    if (!finger_active(i) || !target.allFinite()) return;
+    sim->move_finger(i, target);
+  }
+
+  std::optional<PickHit> pick_at(double x, double y) {
+    Vec3 o, d;
+    camera.ray(x, y, o, d);
+    const auto t0 = Clock::now();
+    picker.update(sim->sheet());
+    auto hit = picker.pick(o, d);
+    last_pick_us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
+    max_pick_us = std::max(max_pick_us, last_pick_us);
+    ++picks;
+    return hit;
+  }
+
+  void press_left(double x, double y, int mods) {
+    drag = Drag{};
+    drag.x0 = drag.last_x = x;
+    drag.y0 = drag.last_y = y;
+    const int f = finger_at(x, y);
+    if (mods & GLFW_MOD_CONTROL) {
+      if (f >= 0) {
+        if (!selected.erase(f)) selected.insert(f);
+      }
+      return;
+    }
+    int grab = f;
+    if (grab < 0) {
+      if (auto hit = pick_at(x, y)) {
+        const std::string name = "F" + std::to_string(++finger_counter);
+        grab = sim->attach_finger(name, hit->uv);
+        if (grab < 0) say("no sheet under the cursor at " + name);
+        else picker.update(sim->sheet());
+      }
+    }
+    if (grab >= 0) {
+      if (!selected.count(grab)) {
+        selected.clear();
+        selected.insert(grab);
+      }
+      drag.mode = Drag::Finger;
+      drag.finger = grab;
+      drag.plane_point = finger_goal(grab);
+      for (int s : selected)
+        if (finger_active(s)) drag.start.push_back({s, finger_goal(s)});
+      return;
+    }
+    drag.mode = Drag::Orbit;
+  }
+
+  void drag_to(double x, double y, int mods) {
+    const double dx = x - drag.last_x, dy = y - drag.last_y;
+    drag.last_x = x;
+    drag.last_y = y;
+    if (dx == 0 && dy == 0) return;
+    drag.moved = true;
+    switch (drag.mode) {
+      case Drag::Orbit: camera.orbit(dx, dy); break;
+      case Drag::Pan: camera.pan(dx, dy); break;
+      case Drag::Finger: {
+        const Vec3 n = camera.forward();
+        Vec3 delta;
+        if (mods & GLFW_MOD_SHIFT) {
+          // Depth: vertical motion moves along the view axis (up = away from the viewer).
+          const double scale = 2.0 * camera.distance * std::tan(camera.fov_deg * kPi / 360.0) / camera.height;
+          drag.plane_point += n * (-dy * scale);
+          drag.x0 = x;
+          drag.y0 = y;
+          delta = drag.plane_point - drag.start.front().second;
+          for (auto& [i, p0] : drag.start)
+            if (i == drag.finger) delta = drag.plane_point - p0;
+        } else {
+          // The view plane through the grabbed point: the cursor ray's intersection.
+          Vec3 o, d;
+          camera.ray(x, y, o, d);
+          const double denom = d.dot(n);
+          if (std::abs(denom) < 1e-9) return;
+          const double t = (drag.plane_point - o).dot(n) / denom;
+          const Vec3 p = o + t * d;
+          Vec3 p0 = drag.plane_point;
+          for (auto& [i, q] : drag.start)
+            if (i == drag.finger) p0 = q;
+          delta = p - p0;
+          // Keep the depth offset accumulated with Shift.
+          delta += n * (drag.plane_point - p0).dot(n);
+        }
+        for (auto& [i, p0] : drag.start) move(i, p0 + delta);
+        break;
+      }
+      default: break;
+    }
+  }
+
+  void release_at(double x, double y) {
+    const int f = finger_at(x, y);
+    if (f >= 0) {
+      sim->release_finger(f);
+      selected.erase(f);
+      say("released " + sim->sheet().fingers[f].name);
+    }
+  }
+
+  // Q/E: the selected fingers turn rigidly about their centroid around the view axis.
+  void rotate_selection(double radians) {
+    std::vector<int> ids;
+    for (int i : selected)
+      if (finger_active(i)) ids.push_back(i);
+    if (ids.empty()) return;
+    Vec3 c = Vec3::Zero();
+    for (int i : ids) c += finger_goal(i);
+    c /= static_cast<double>(ids.size());
+    const Eigen::AngleAxisd r(radians, camera.forward());
+    for (int i : ids) move(i, c + r * (finger_goal(i) - c));
+  }
+
+  void record() {
+    try {
+      write_session(*sim, record_path);
+      say(std::string("recorded ") + std::to_string(sim->frame()) + " frames to " + record_path);
+    } catch (const std::exception& e) {
+      say(std::string("record failed: ") + e.what());
+    }
+  }
+
+  // --- input --------------------------------------------------------------------------------------------
+
+  void handle_input(double dt) {
+    ImGuiIO& io = ImGui::GetIO();
+    double x, y;
+    glfwGetCursorPos(window, &x, &y);
+    int mods = 0;
+    if (glfwGetKey(window, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS || glfwGetKey(window, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS)
+      mods |= GLFW_MOD_SHIFT;
+    if (glfwGetKey(window, GLFW_KEY_LEFT_CONTROL) == GLFW_PRESS ||
+        glfwGetKey(window, GLFW_KEY_RIGHT_CONTROL) == GLFW_PRESS)
+      mods |= GLFW_MOD_CONTROL;
+
+    if (!io.WantCaptureMouse) {
+      if (ImGui::IsMouseClicked(ImGuiMouseButton_Left)) press_left(x, y, mods);
+      if (ImGui::IsMouseClicked(ImGuiMouseButton_Right)) {
+        drag = Drag{};
+        drag.mode = Drag::Pan;
+        drag.x0 = drag.last_x = x;
+        drag.y0 = drag.last_y = y;
+      }
+      if (ImGui::IsMouseClicked(ImGuiMouseButton_Middle)) {
+        drag = Drag{};
+        drag.mode = Drag::Pan;
+        drag.last_x = x;
+        drag.last_y = y;
+      }
+      if (io.MouseWheel != 0) camera.zoom(std::pow(0.9, io.MouseWheel));
+    }
+    if (drag.mode != Drag::None) {
+      const bool down = ImGui::IsMouseDown(ImGuiMouseButton_Left) || ImGui::IsMouseDown(ImGuiMouseButton_Right) ||
+                        ImGui::IsMouseDown(ImGuiMouseButton_Middle);
+      if (down) drag_to(x, y, mods);
+      if (ImGui::IsMouseReleased(ImGuiMouseButton_Right) && !drag.moved && !io.WantCaptureMouse) release_at(x, y);
+      if (!down) drag = Drag{};
+    }
+
+    if (io.WantCaptureKeyboard) return;
+    if (ImGui::IsKeyPressed(GLFW_KEY_SPACE)) playing = !playing;
+    if (ImGui::IsKeyPressed(GLFW_KEY_N)) step_once = true;
+    if (ImGui::IsKeyPressed(GLFW_KEY_R, false)) reset();
+    if (ImGui::IsKeyPressed(GLFW_KEY_W, false)) wireframe = !wireframe;
+    if (ImGui::IsKeyPressed(GLFW_KEY_F, false)) camera.frame_sheet(sim->sheet(), scenario.sim.gravity);
+    if (ImGui::IsKeyPressed(GLFW_KEY_ESCAPE, false)) selected.clear();
+    if (ImGui::IsKeyPressed(GLFW_KEY_G, false)) {
+      selected.clear();
+      for (int i = 0; i < static_cast<int>(sim->sheet().fingers.size()); ++i)
+        if (finger_active(i)) selected.insert(i);
+    }
+    if ((mods & GLFW_MOD_CONTROL) && ImGui::IsKeyPressed(GLFW_KEY_S, false)) record();
+    const double rate = kPi / 2;  // 90°/s
+    if (ImGui::IsKeyDown(GLFW_KEY_Q)) rotate_selection(rate * dt);
+    if (ImGui::IsKeyDown(GLFW_KEY_E)) rotate_selection(-rate * dt);
+  }
+
+  // --- overlays and panels ------------------------------------------------------------------------------
+
+  void draw_finger_markers() {
+    ImDrawList* dl = ImGui::GetBackgroundDrawList();
+    const Sheet& s = sim->sheet();
+    for (int i = 0; i < static_cast<int>(s.fingers.size()); ++i) {
+      if (!finger_active(i)) continue;
+      double px, py;
+      if (!camera.project(finger_position(i), px, py)) continue;
+      const bool sel = selected.count(i) > 0;
+      dl->AddCircleFilled(ImVec2(float(px), float(py)), 7.f, sel ? IM_COL32(255, 200, 30, 255) : IM_COL32(220, 30, 30, 255));
+      dl->AddCircle(ImVec2(float(px), float(py)), 7.f, IM_COL32(60, 0, 0, 255), 0, 1.5f);
+      dl->AddText(ImVec2(float(px) + 9, float(py) - 8), IM_COL32(120, 0, 0, 255), s.fingers[i].name.c_str());
+    }
+  }
+
+  // The 2D pattern inset: bottom right, a third of the window's height (GL, see Renderer::draw_pattern).
+  void draw_pattern_inset(int fw, int fh) {
+    if (!show_pattern) return;
+    Vec2 lo = Vec2::Constant(1e300), hi = Vec2::Constant(-1e300);
+    for (const Vec2& p : scenario.outline) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+    const double aspect = (hi.x() - lo.x()) / std::max(1e-9, hi.y() - lo.y());
+    int h = fh * 2 / 5, w = static_cast<int>(h * aspect);
+    if (w > fw / 3) {
+      w = fw / 3;
+      h = static_cast<int>(w / aspect);
+    }
+    const std::vector<int> sel(selected.begin(), selected.end());
+    renderer.draw_pattern(*sim, fw - w - 10, 10, w, h, sel);
+    glViewport(0, 0, fw, fh);
+  }
+
+  void panel() {
+    ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_FirstUseEver);
+    ImGui::SetNextWindowSize(ImVec2(340, 0), ImGuiCond_FirstUseEver);
+    ImGui::Begin("papertear");
+    const Sheet& s = sim->sheet();
+    ImGui::Text("%s", scenario.name.c_str());
+    ImGui::Text("frame %d   t = %.2f s   %.1f FPS", sim->frame(), sim->time(), ImGui::GetIO().Framerate);
+    ImGui::Text("%d triangles, %d vertices, %zu tears, %d pieces", s.tris.size(), s.verts.size(), s.tears.size(),
+                s.topo.piece_count);
+    ImGui::Text("step %.2f ms (avg %.2f), pick %.1f us (max %.1f)", sim_ms.count ? sim_ms.v[(sim_ms.head + 239) % 240] : 0.f,
+                sim_ms.avg(), last_pick_us, max_pick_us);
+    if (ImGui::Button(playing ? "Pause" : "Play")) playing = !playing;
+    ImGui::SameLine();
+    if (ImGui::Button("Step")) step_once = true;
+    ImGui::SameLine();
+    if (ImGui::Button("Reset")) reset();
+    ImGui::SameLine();
+    ImGui::Checkbox("wire", &wireframe);
+    ImGui::SameLine();
+    ImGui::Checkbox("pattern", &show_pattern);
+
+    if (ImGui::CollapsingHeader("Material and tearing", ImGuiTreeNodeFlags_DefaultOpen)) {
+      Material& m = sim->mutable_sheet().material;
+      ImGui::TextDisabled("live:");
+      ImGui::DragScalar("fracture c (J/m2)", ImGuiDataType_Double, &m.fracture_c, 50.0f);
+      m.fracture_c = std::max(1.0, m.fracture_c);
+      const double zero = 0, one = 1;
+      ImGui::SliderScalar("tip damage D", ImGuiDataType_Double, &m.tip_damage, &zero, &one, "%.3f");
+      ImGui::TextDisabled("applied on Reset:");
+      bool changed = false;
+      const double t_lo = 2e-5, t_hi = 1e-3, s_lo = 1e-9, s_hi = 1e-5, m_lo = 1e-4, m_hi = 0.05, sg_lo = 1e-5,
+                   sg_hi = 2e-3;
+      changed |= ImGui::SliderScalar("thickness e (m)", ImGuiDataType_Double, &thickness, &t_lo, &t_hi, "%.2e",
+                                     ImGuiSliderFlags_Logarithmic);
+      changed |= ImGui::SliderScalar("speed k", ImGuiDataType_Double, &speed, &s_lo, &s_hi, "%.2e",
+                                     ImGuiSliderFlags_Logarithmic);
+      changed |= ImGui::SliderScalar("max step (m)", ImGuiDataType_Double, &max_step, &m_lo, &m_hi, "%.4f",
+                                     ImGuiSliderFlags_Logarithmic);
+      changed |= ImGui::SliderScalar("sigma (m)", ImGuiDataType_Double, &sigma, &sg_lo, &sg_hi, "%.2e",
+                                     ImGuiSliderFlags_Logarithmic);
+      changed |= ImGui::SliderScalar("omega", ImGuiDataType_Double, &omega, &zero, &one, "%.3f");
+      if (changed) pending_reset_params = true;
+      if (pending_reset_params) ImGui::TextColored(ImVec4(1, 0.7f, 0.2f, 1), "Reset (R) to apply e, k, max step, sigma, omega");
+    }
+
+    if (ImGui::CollapsingHeader("Timings (ms, Table 1 groups)", ImGuiTreeNodeFlags_DefaultOpen)) {
+      static const char* names[5] = {"physics", "geometry", "tearing", "carving", "frame"};
+      for (int k = 0; k < 5; ++k) {
+        const Series& se = series[k];
+        char overlay[64];
+        std::snprintf(overlay, sizeof overlay, "%s avg %.2f max %.2f", names[k], se.avg(), se.max());
+        ImGui::PlotLines(names[k], se.v.data(), static_cast<int>(se.v.size()), se.head, overlay, 0.0f,
+                         std::max(0.1f, se.max() * 1.1f), ImVec2(0, 36));
+      }
+      char overlay[64];
+      std::snprintf(overlay, sizeof overlay, "render avg %.2f max %.2f", render_ms.avg(), render_ms.max());
+      ImGui::PlotLines("render", render_ms.v.data(), static_cast<int>(render_ms.v.size()), render_ms.head, overlay,
+                       0.0f, std::max(0.1f, render_ms.max() * 1.1f), ImVec2(0, 36));
+    }
+
+    if (ImGui::CollapsingHeader("Fingers", ImGuiTreeNodeFlags_DefaultOpen)) {
+      for (int i = 0; i < static_cast<int>(s.fingers.size()); ++i) {
+        const Finger& f = s.fingers[i];
+        char label[160];
+        std::snprintf(label, sizeof label, "%s  uv (%.3f, %.3f)  |F| %.2f N%s", f.name.c_str(), f.uv.x(), f.uv.y(),
+                      f.reaction.norm(), f.vertex < 0 ? (f.released ? "  released" : "  waiting") : "");
+        if (ImGui::Selectable(label, selected.count(i) > 0) && finger_active(i)) {
+          if (!ImGui::GetIO().KeyCtrl) selected.clear();
+          selected.insert(i);
+        }
+      }
+      if (ImGui::Button("Release selected")) {
+        for (int i : selected)
+          if (finger_active(i)) sim->release_finger(i);
+        selected.clear();
+      }
+    }
+
+    if (ImGui::CollapsingHeader("Record", ImGuiTreeNodeFlags_DefaultOpen)) {
+      ImGui::InputText("file", record_path, sizeof record_path);
+      if (ImGui::Button("Record session (Ctrl+S)")) record();
+      ImGui::TextDisabled("papertear run <file> replays it");
+    }
+    if (ImGui::CollapsingHeader("Help")) {
+      ImGui::TextWrapped(
+          "Left click on the sheet: put a finger there; drag: move it in the view plane (Shift: depth). "
+          "Left drag a finger: grab it (with the selected ones). Ctrl+click: select. Right click a finger: "
+          "let go. Left drag elsewhere: orbit; right/middle drag: pan; wheel: zoom. Space play/pause, N "
+          "step, R reset, G select all fingers (hand), Q/E rotate the selection about the view axis, Esc "
+          "deselect, W wireframe, F frame, Ctrl+S record.");
+    }
+    if (!status.empty() && glfwGetTime() < status_until) ImGui::TextColored(ImVec4(0.4f, 1, 0.4f, 1), "%s", status.c_str());
+    ImGui::End();
+  }
+
+  // --- frame --------------------------------------------------------------------------------------------
+
+  void render_frame() {
+    int fw, fh;
+    glfwGetFramebufferSize(window, &fw, &fh);
+    int ww, wh;
+    glfwGetWindowSize(window, &ww, &wh);
+    camera.width = std::max(1, ww);
+    camera.height = std::max(1, wh);
+    glViewport(0, 0, fw, fh);
+    glClearColor(0.20f, 0.22f, 0.26f, 1.0f);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    const auto t0 = Clock::now();
+    renderer.draw(*sim, camera, wireframe);
+    draw_pattern_inset(fw, fh);
+    glFinish();
+    const auto t1 = Clock::now();
+    ImGui::Render();
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    glFinish();
+    const auto t2 = Clock::now();
+    sheet_ms.add(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    ui_ms.add(std::chrono::duration<double, std::milli>(t2 - t1).count());
+    render_ms.add(std::chrono::duration<double, std::milli>(t2 - t0).count());
+  }
+
+  bool save_png(const std::string& path) {
+    int fw, fh;
+    glfwGetFramebufferSize(window, &fw, &fh);
+    std::vector<unsigned char> px(static_cast<size_t>(fw) * fh * 4), flipped(px.size());
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadBuffer(GL_BACK);
+    glReadPixels(0, 0, fw, fh, GL_RGBA, GL_UNSIGNED_BYTE, px.data());
+    for (int y = 0; y < fh; ++y)
+      std::memcpy(&flipped[static_cast<size_t>(y) * fw * 4], &px[static_cast<size_t>(fh - 1 - y) * fw * 4],
+                  static_cast<size_t>(fw) * 4);
+    for (size_t i = 3; i < flipped.size(); i += 4) flipped[i] = 255;
+    const fs::path target(path);
+    std::error_code ec;
+    if (target.has_parent_path()) fs::create_directories(target.parent_path(), ec);
+    return stbi_write_png(path.c_str(), fw, fh, 4, flipped.data(), fw * 4) != 0;
+  }
+
+  int run() {
+    const bool headless = opt.frames >= 0;
+    int frames_done = 0;
+    double last = glfwGetTime();
+    const auto wall0 = Clock::now();
+    while (!glfwWindowShouldClose(window)) {
+      glfwPollEvents();
+      const double now = glfwGetTime();
+      const double dt = std::min(0.1, now - last);
+      last = now;
+      ImGui_ImplOpenGL3_NewFrame();
+      ImGui_ImplGlfw_NewFrame();
+      ImGui::NewFrame();
+      if (!headless) handle_input(dt);
+      if (headless || playing || step_once) {
+        advance();
+        step_once = false;
+      }
+      panel();
+      draw_finger_markers();
+      render_frame();
+      if (headless && ++frames_done >= opt.frames) break;
+      glfwSwapBuffers(window);
+    }
+    if (headless) {
+      const double wall = std::chrono::duration<double>(Clock::now() - wall0).count();
+      sim->flush();
+      std::printf("papertear-viewer: %d frames in %.2f s: %.1f frames/s (sim step avg %.2f ms, render avg %.2f ms: "
+                  "sheet %.2f, ui %.2f), %d triangles, %zu tears\n",
+                  frames_done, wall, frames_done / std::max(1e-9, wall), sim_ms.avg(), render_ms.avg(), sheet_ms.avg(),
+                  ui_ms.avg(),
+                  sim->sheet().tris.size(), sim->sheet().tears.size());
+      if (!opt.screenshot.empty()) {
+        // Render once more after flush so the last carved details show, then read the back buffer.
+        ImGui_ImplOpenGL3_NewFrame();
+        ImGui_ImplGlfw_NewFrame();
+        ImGui::NewFrame();
+        panel();
+        draw_finger_markers();
+        render_frame();
+        if (!save_png(opt.screenshot)) {
+          std::fprintf(stderr, "papertear-viewer: cannot write %s\n", opt.screenshot.c_str());
+          return kExitInternal;
+        }
+        std::printf("papertear-viewer: wrote %s\n", opt.screenshot.c_str());
+      }
+    }
+    return kExitOk;
+  }
+};
+
+void glfw_error(int code, const char* message) { std::fprintf(stderr, "papertear-viewer: glfw %d: %s\n", code, message); }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  if (!parse_args(argc, argv, opt)) {
+    usage();
+    return kExitInput;
+  }
+  auto app = std::make_unique<App>();
+  app->opt = opt;
+  try {
+    app->scenario = load_initial(opt.scenario);
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "papertear-viewer: %s\n", e.what());
+    return kExitInput;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "papertear-viewer: %s\n", e.what());
+    return kExitInput;
+  }
+
+  glfwSetErrorCallback(glfw_error);
+  if (!glfwInit()) {
+    std::fprintf(stderr, "papertear-viewer: cannot initialise GLFW (no display? try xvfb-run -a)\n");
+    return kExitInternal;
+  }
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+  glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+  glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GL_TRUE);
+  glfwWindowHint(GLFW_SAMPLES, opt.samples);
+  const std::string title = "papertear-viewer — " + app->scenario.name;
+  app->window = glfwCreateWindow(opt.width, opt.height, title.c_str(), nullptr, nullptr);
+  if (!app->window) {
+    glfwWindowHint(GLFW_SAMPLES, 0);
+    app->window = glfwCreateWindow(opt.width, opt.height, title.c_str(), nullptr, nullptr);
+  }
+  if (!app->window) {
+    std::fprintf(stderr, "papertear-viewer: cannot create an OpenGL 3.3 core window\n");
+    glfwTerminate();
+    return kExitInternal;
+  }
+  glfwMakeContextCurrent(app->window);
+  glfwSwapInterval(opt.frames >= 0 ? 0 : 1);
+
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;
+  ImGui::StyleColorsDark();
+  ImGui_ImplGlfw_InitForOpenGL(app->window, true);
+  ImGui_ImplOpenGL3_Init("#version 330 core");
+
+  int status = kExitOk;
+  try {
+    if (!app->renderer.init()) throw std::runtime_error("OpenGL initialisation failed");
+    app->take_parameters_from_scenario();
+    app->reset();
+    app->camera.frame_sheet(app->sim->sheet(), app->scenario.sim.gravity);
+    status = app->run();
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "papertear-viewer: %s\n", e.what());
+    status = kExitInput;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "papertear-viewer: %s\n", e.what());
+    status = kExitInternal;
+  }
+  app->sim.reset();
+  app.reset();  // GL objects before the context goes
+  ImGui_ImplOpenGL3_Shutdown();
+  ImGui_ImplGlfw_Shutdown();
+  ImGui::DestroyContext();
+  glfwTerminate();
+  return status;
+}
