@@ -60,7 +60,7 @@ const char* kDefaultScenario = R"({
   "sheet": { "outline": [[0,0],[0.21,0],[0.21,0.297],[0.109,0.297],[0.105,0.287],[0.101,0.297],[0,0.297]],
              "triangles": 1000 },
   "sim": { "fps": 30, "substeps": 10, "frames": 300, "gravity": [0, 0, -9.81] },
-  "fingers": []
+  "fingers": [{ "name": "placeholder", "at": [0.105, 0.1] }]
 })";
 
 struct Options {
@@ -70,6 +70,8 @@ struct Options {
   int threads = 2;
   int width = 1280, height = 800;
   int samples = 0;  // MSAA samples (llvmpipe: 4× costs several times the fill time)
+  bool demo_drag = false;  // headless: click two points of the sheet and pull them apart with the mouse code
+  std::string record;      // headless: record the session to this file at the end
 };
 
 void usage() {
@@ -108,6 +110,12 @@ bool parse_args(int argc, char** argv, Options& o) {
     } else if (a == "--threads") {
       const char* v = value("--threads");
       if (!v || !number(v, 1, 256, o.threads)) return false;
+    } else if (a == "--demo-drag") {
+      o.demo_drag = true;
+    } else if (a == "--record") {
+      const char* v = value("--record");
+      if (!v) return false;
+      o.record = v;
     } else if (a == "--msaa") {
       const char* v = value("--msaa");
       if (!v || !number(v, 0, 16, o.samples)) return false;
@@ -139,7 +147,10 @@ Scenario load_initial(const std::string& path) {
   if (!path.empty()) return load_scenario(path);
   for (const fs::path& p : {fs::path("scenarios/demo.json"), fs::path(PT_SOURCE_DIR) / "scenarios/demo.json"})
     if (fs::exists(p)) return load_scenario(p.string());
-  return parse_scenario(kDefaultScenario, "<built-in default>");
+  // Scenario files need a finger; the built-in sheet starts with none (the user puts them on).
+  Scenario s = parse_scenario(kDefaultScenario, "<built-in default>");
+  s.fingers.clear();
+  return s;
 }
 
 // A ring buffer of the last samples of one timing series, for ImGui::PlotLines.
@@ -391,10 +402,15 @@ struct App {
     for (int i : ids) move(i, c + r * (finger_goal(i) - c));
   }
 
-  void record() {
+  void record() { record_to(record_path); }
+  void record_to(const std::string& path) {
+    if (sim->sheet().fingers.empty()) {
+      say("nothing to record: put a finger on the sheet first (a scenario needs one)");
+      return;
+    }
     try {
-      write_session(*sim, record_path);
-      say(std::string("recorded ") + std::to_string(sim->frame()) + " frames to " + record_path);
+      write_session(*sim, path);
+      say(std::string("recorded ") + std::to_string(sim->frame()) + " frames to " + path);
     } catch (const std::exception& e) {
       say(std::string("record failed: ") + e.what());
     }
@@ -628,6 +644,62 @@ struct App {
     return stbi_write_png(path.c_str(), fw, fh, 4, flipped.data(), fw * 4) != 0;
   }
 
+  // Scripted mouse for headless checks of the interactive path (picking, attach, drag, rotate, release):
+  // frame 2 clicks the sheet left of its top centre and frame 4 right of it (grabbing both as a hand);
+  // the hand is dragged apart in the view plane and turned (Q), then let go at 3/4 of the run.
+  Vec2 demo_uv(int k) const {
+    Vec2 lo = Vec2::Constant(1e300), hi = Vec2::Constant(-1e300);
+    for (const Vec2& p : scenario.outline) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+    return Vec2(lo.x() + (k == 0 ? 0.36 : 0.64) * (hi.x() - lo.x()), lo.y() + 0.93 * (hi.y() - lo.y()));
+  }
+  void demo_input(int f) {
+    auto screen_of = [&](const Vec2& uv, double& px, double& py) {
+      const Sheet& s = sim->sheet();
+      int best = 0;
+      for (int v = 1; v < s.verts.size(); ++v)
+        if ((s.verts.rest[v] - uv).squaredNorm() < (s.verts.rest[best] - uv).squaredNorm()) best = v;
+      return camera.project(s.verts.x[best], px, py);
+    };
+    double px, py;
+    if (f == 2 && screen_of(demo_uv(0), px, py)) {
+      press_left(px, py, 0);
+      drag = Drag{};
+    }
+    if (f == 4 && screen_of(demo_uv(1), px, py)) {
+      press_left(px, py, GLFW_MOD_CONTROL);  // ctrl on empty sheet: nothing; plain click below
+      press_left(px, py, 0);
+      drag = Drag{};
+      selected.clear();
+      for (int i = 0; i < static_cast<int>(sim->sheet().fingers.size()); ++i)
+        if (finger_active(i)) selected.insert(i);  // G
+    }
+    const int end = std::max(8, opt.frames * 3 / 4);
+    if (f > 4 && f < end && selected.size() >= 2) {
+      // Pull the second finger away from the first in the view plane, a few pixels per frame.
+      const int second = *selected.rbegin();
+      if (camera.project(finger_position(second), px, py)) {
+        Drag keep = drag;
+        drag = Drag{};
+        drag.mode = Drag::Finger;
+        drag.finger = second;
+        drag.plane_point = finger_goal(second);
+        drag.start = {{second, finger_goal(second)}};
+        drag.last_x = px;
+        drag.last_y = py;
+        drag_to(px + 3, py - 1, 0);
+        drag = keep;
+      }
+      if (f % 4 == 0) rotate_selection(0.01);  // Q held now and then
+    }
+    if (f == end)
+      for (int i : std::set<int>(selected)) {
+        if (camera.project(finger_position(i), px, py)) release_at(px, py);
+      }
+  }
+
   int run() {
     const bool headless = opt.frames >= 0;
     int frames_done = 0;
@@ -642,6 +714,7 @@ struct App {
       ImGui_ImplGlfw_NewFrame();
       ImGui::NewFrame();
       if (!headless) handle_input(dt);
+      else if (opt.demo_drag) demo_input(frames_done);
       if (headless || playing || step_once) {
         advance();
         step_once = false;
@@ -655,6 +728,7 @@ struct App {
     if (headless) {
       const double wall = std::chrono::duration<double>(Clock::now() - wall0).count();
       sim->flush();
+      if (!opt.record.empty()) record_to(opt.record);
       std::printf("papertear-viewer: %d frames in %.2f s: %.1f frames/s (sim step avg %.2f ms, render avg %.2f ms: "
                   "sheet %.2f, ui %.2f), %d triangles, %zu tears\n",
                   frames_done, wall, frames_done / std::max(1e-9, wall), sim_ms.avg(), render_ms.avg(), sheet_ms.avg(),
