@@ -1,0 +1,291 @@
+// The papertear command line as a user meets it (DESIGN §7): exit status 2 with exactly one line on
+// stderr and nothing written for every bad input; exit 0, a complete result.json and an SVG for a good
+// one; usage errors are exit 2 too.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kBinary = std::string(PT_BINARY_DIR) + "/bin/papertear";
+const std::string kBadDir = std::string(PT_SOURCE_DIR) + "/tests/data/bad";
+
+// A small sheet that runs in well under a second: A6, 60 triangles, 3 frames, two fingers pulling up.
+const char* kGood = R"({
+  "name": "cli-good",
+  "sheet": {"preset": "A6", "triangles": 60},
+  "sim": {"frames": 3},
+  "fingers": [
+    {"name": "A", "at": [0.02, 0.14], "keys": [[0, [0.02, 0.14, 0]], [1, [0.02, 0.16, 0.02]]]},
+    {"name": "B", "at": [0.085, 0.14], "keys": [[0, [0.085, 0.14, 0]], [1, [0.085, 0.16, 0.02]]]}
+  ]
+})";
+
+std::string read_file(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+void write_file(const fs::path& p, const std::string& text) {
+  std::ofstream f(p, std::ios::binary);
+  f << text;
+}
+
+std::string quote(const std::string& s) {
+  std::string q = "'";
+  for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+struct Result {
+  int status = -1;
+  std::string out, err;
+};
+
+// Each test works in its own empty directory (the default output dir is relative: out/<name>).
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("pt_cli_test_" + std::to_string(::getpid()) + "_" + info->test_suite_name() + "_" + info->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    ASSERT_TRUE(fs::exists(kBinary)) << kBinary << " not built";
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+
+  Result run(const std::vector<std::string>& args) {
+    // timeout(1): a hang becomes a failure (status 124) instead of stalling the suite.
+    std::string cmd = "cd " + quote(dir_.string()) + " && timeout 120 " + quote(kBinary);
+    for (const std::string& a : args) cmd += " " + quote(a);
+    cmd += " > stdout.txt 2> stderr.txt < /dev/null";
+    const int raw = std::system(cmd.c_str());
+    Result r;
+    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + (WIFSIGNALED(raw) ? WTERMSIG(raw) : 0);
+    r.out = read_file(dir_ / "stdout.txt");
+    r.err = read_file(dir_ / "stderr.txt");
+    fs::remove(dir_ / "stdout.txt");
+    fs::remove(dir_ / "stderr.txt");
+    return r;
+  }
+
+  fs::path good() {
+    const fs::path p = dir_ / "good.json";
+    write_file(p, kGood);
+    return p;
+  }
+
+  // Everything in the working directory (the run must have created nothing).
+  std::vector<std::string> listing() {
+    std::vector<std::string> names;
+    for (const auto& e : fs::recursive_directory_iterator(dir_)) names.push_back(e.path().lexically_relative(dir_));
+    std::sort(names.begin(), names.end());
+    return names;
+  }
+
+  fs::path dir_;
+};
+
+bool one_line(const std::string& s) { return !s.empty() && s.back() == '\n' && std::count(s.begin(), s.end(), '\n') == 1; }
+
+void expect_input_error(const Result& r, const std::string& what) {
+  EXPECT_EQ(r.status, 2) << what << "\nstderr: " << r.err;
+  EXPECT_TRUE(one_line(r.err)) << what << ": stderr is not exactly one line:\n" << r.err;
+  EXPECT_EQ(r.err.rfind("papertear: ", 0), 0u) << r.err;
+}
+
+// ---- bad input: every fixture, with run and check ----
+
+TEST_F(Cli, EveryBadFixtureIsExit2OneLineNoOutput) {
+  int count = 0;
+  for (const auto& entry : fs::directory_iterator(kBadDir)) {
+    const std::string file = entry.path().string();
+    SCOPED_TRACE(file);
+    const Result r = run({"run", file, "--out", "result-dir", "--svg", "--obj"});
+    expect_input_error(r, "run " + file);
+    EXPECT_NE(r.err.find(file), std::string::npos) << "the message does not name the file: " << r.err;
+    EXPECT_TRUE(listing().empty()) << "output written for a bad input";
+    const Result c = run({"check", file});
+    expect_input_error(c, "check " + file);
+    ++count;
+  }
+  EXPECT_GE(count, 20);
+}
+
+TEST_F(Cli, BinaryGarbageIsExit2) {
+  std::string bytes;
+  for (int i = 0; i < 4096; ++i) bytes += static_cast<char>((i * 131 + 7) & 0xff);
+  write_file(dir_ / "garbage.json", bytes);
+  const Result r = run({"run", "garbage.json"});
+  expect_input_error(r, "garbage");
+  EXPECT_NE(r.err.find("garbage.json"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+TEST_F(Cli, InvalidUtf8WithoutNulIsExit2) {
+  std::string bytes = "{\"name\": \"";
+  for (int i = 0; i < 300; ++i) bytes += static_cast<char>(0x80 | (i & 0x7f));
+  write_file(dir_ / "latin.json", bytes + "\"}\n");
+  const Result r = run({"check", "latin.json"});
+  expect_input_error(r, "invalid utf-8");
+}
+
+TEST_F(Cli, MissingFileAndDirectoryAreExit2) {
+  expect_input_error(run({"run", "nope.json"}), "missing file");
+  fs::create_directories(dir_ / "adir");
+  expect_input_error(run({"check", "adir"}), "directory");
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+// ---- usage errors ----
+
+TEST_F(Cli, UsageErrorsAreExit2OneLine) {
+  const fs::path g = good();
+  expect_input_error(run({}), "no subcommand");
+  expect_input_error(run({"fly", g.string()}), "unknown subcommand");
+  expect_input_error(run({"run"}), "missing scenario");
+  expect_input_error(run({"run", g.string(), "--bogus"}), "unknown flag");
+  expect_input_error(run({"run", g.string(), "--threads", "0"}), "--threads 0");
+  expect_input_error(run({"run", g.string(), "--threads", "two"}), "--threads two");
+  expect_input_error(run({"run", g.string(), "--frames", "-1"}), "--frames -1");
+  expect_input_error(run({"run", g.string(), "--frames", "0"}), "--frames 0");
+  expect_input_error(run({"batch", g.string()}), "batch without --sheets");
+  expect_input_error(run({"batch", g.string(), "--sheets", "2", "--vary", "material.colour=1:2"}), "bad --vary");
+  expect_input_error(run({"batch", g.string(), "--sheets", "3", "--vary", "material.poisson=0.3:0.7"}),
+                     "--vary out of range");
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+TEST_F(Cli, OutIsAFileIsExit2) {
+  const fs::path g = good();
+  write_file(dir_ / "taken", "x");
+  expect_input_error(run({"run", g.string(), "--out", "taken"}), "--out is a file");
+  EXPECT_EQ(read_file(dir_ / "taken"), "x");
+}
+
+TEST_F(Cli, HelpIsExit0) {
+  const Result r = run({"--help"});
+  EXPECT_EQ(r.status, 0);
+  EXPECT_NE(r.out.find("run"), std::string::npos);
+}
+
+// ---- good input ----
+
+TEST_F(Cli, CheckGoodScenario) {
+  const Result r = run({"check", good().string()});
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+  EXPECT_NE(r.out.find("ok"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+TEST_F(Cli, RunWritesEveryResultKey) {
+  const Result r = run({"run", good().string(), "--svg"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(r.err.empty()) << "stderr must stay quiet off a terminal: " << r.err;
+  EXPECT_NE(r.out.find("3 frames"), std::string::npos) << r.out;
+
+  const fs::path out = dir_ / "out" / "cli-good";  // default DIR: out/<name>
+  const nlohmann::json j = nlohmann::json::parse(read_file(out / "result.json"));
+  for (const char* key : {"scenario", "status", "frames", "threads", "mesh", "tears", "fingers", "timings_ms", "hash"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["scenario"], "cli-good");
+  EXPECT_EQ(j["status"], "ok");
+  EXPECT_EQ(j["frames"], 3);
+  EXPECT_EQ(j["threads"], 2);
+  for (const char* key : {"vertices", "triangles", "triangles_avg", "triangles_max", "pieces"})
+    EXPECT_TRUE(j["mesh"].contains(key)) << "mesh." << key;
+  EXPECT_TRUE(j["mesh"]["triangles"].is_number_integer());
+  ASSERT_TRUE(j["tears"].is_array());
+  for (const auto& t : j["tears"]) {
+    for (const char* key : {"id", "parent", "start", "tips", "detail"}) EXPECT_TRUE(t.contains(key)) << "tears[]." << key;
+    EXPECT_TRUE(t["parent"].is_null() || t["parent"].is_number_integer());
+    for (const char* key : {"kind", "frame", "uv"}) EXPECT_TRUE(t["start"].contains(key)) << "tears[].start." << key;
+    const std::string kind = t["start"]["kind"];
+    EXPECT_TRUE(kind == "finger" || kind == "junction" || kind == "inward") << kind;
+    EXPECT_EQ(t["start"]["uv"].size(), 2u);
+    for (const auto& p : t["tips"]) EXPECT_EQ(p.size(), 2u);
+  }
+  ASSERT_EQ(j["fingers"].size(), 2u);
+  EXPECT_EQ(j["fingers"][0]["name"], "A");
+  EXPECT_EQ(j["fingers"][1]["name"], "B");
+  for (const auto& f : j["fingers"]) {
+    EXPECT_EQ(f["uv"].size(), 2u);
+    EXPECT_TRUE(f["max_force"].is_number());
+  }
+  for (const char* group : {"physics", "geometry", "tearing", "carving", "frame"}) {
+    ASSERT_TRUE(j["timings_ms"].contains(group)) << group;
+    EXPECT_TRUE(j["timings_ms"][group]["avg"].is_number()) << group;
+    EXPECT_TRUE(j["timings_ms"][group]["max"].is_number()) << group;
+  }
+  EXPECT_TRUE(j["hash"].is_string());
+  EXPECT_FALSE(j["hash"].get<std::string>().empty());
+  for (const char* extra : {"systems_ms", "regions_summary", "pieces"}) EXPECT_TRUE(j.contains(extra)) << extra;
+  EXPECT_EQ(j["systems_ms"].size(), 11u);
+
+  // No NaN, no inf: the text parses as JSON (which has neither) and has no null numbers.
+  const std::string text = read_file(out / "result.json");
+  EXPECT_EQ(text.find("NaN"), std::string::npos);
+  EXPECT_EQ(text.find("nan"), std::string::npos);
+
+  const std::string svg = read_file(out / "pattern.svg");
+  EXPECT_EQ(svg.rfind("<svg", 0), 0u) << svg.substr(0, 80);
+  EXPECT_NE(svg.find("</svg>"), std::string::npos);
+  EXPECT_NE(svg.find(">A</text>"), std::string::npos);
+  EXPECT_EQ(svg.find("nan"), std::string::npos);
+}
+
+TEST_F(Cli, ObjFramesAndNoLeftovers) {
+  const Result r = run({"run", good().string(), "--out", "o", "--obj", "--frames", "2", "--threads", "1"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir_ / "o" / "frames" / "frame_0001.obj"));
+  EXPECT_TRUE(fs::exists(dir_ / "o" / "frames" / "frame_0002.obj"));
+  EXPECT_FALSE(fs::exists(dir_ / "o" / "frames" / "frame_0003.obj"));
+  const std::string obj = read_file(dir_ / "o" / "frames" / "frame_0001.obj");
+  EXPECT_NE(obj.find("\nv "), std::string::npos);
+  EXPECT_NE(obj.find("\nvt "), std::string::npos);
+  EXPECT_NE(obj.find("\nf "), std::string::npos);
+  for (const auto& e : fs::directory_iterator(dir_ / "o")) {
+    const std::string name = e.path().filename().string();
+    EXPECT_TRUE(name == "result.json" || name == "frames") << "leftover " << name;
+  }
+  const nlohmann::json j = nlohmann::json::parse(read_file(dir_ / "o" / "result.json"));
+  EXPECT_EQ(j["frames"], 2);
+  EXPECT_EQ(j["threads"], 1);
+}
+
+TEST_F(Cli, SameHashAtOneAndTwoThreads) {
+  const fs::path g = good();
+  ASSERT_EQ(run({"run", g.string(), "--out", "t1", "--threads", "1"}).status, 0);
+  ASSERT_EQ(run({"run", g.string(), "--out", "t2", "--threads", "2"}).status, 0);
+  const auto h1 = nlohmann::json::parse(read_file(dir_ / "t1" / "result.json"))["hash"];
+  const auto h2 = nlohmann::json::parse(read_file(dir_ / "t2" / "result.json"))["hash"];
+  EXPECT_EQ(h1, h2);
+}
+
+TEST_F(Cli, BatchWritesBatchJson) {
+  const Result r = run({"batch", good().string(), "--sheets", "3", "--frames", "2", "--out", "b"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(read_file(dir_ / "b" / "batch.json"));
+  for (const char* key : {"sheets", "threads", "wall_s", "sheet_frames_per_s", "timings_ms", "hashes"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["sheets"], 3);
+  EXPECT_EQ(j["hashes"].size(), 3u);
+}
+
+}  // namespace
