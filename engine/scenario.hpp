@@ -30,6 +30,7 @@ struct SimSettings {
   int32_t frames = 90;
   Vec3 gravity = Vec3(0, 0, -9.81);
   int32_t iterations = 2;  // projective dynamics local/global iterations per substep
+  std::string solver = "implicit";  // "implicit" (linearly implicit corotated) or "projective"
 };
 
 struct FingerSpec {

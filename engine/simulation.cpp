@@ -11,6 +11,7 @@
 #include "systems/clustering.hpp"
 #include "systems/fingers.hpp"
 #include "systems/integrate.hpp"
+#include "systems/integrate_implicit.hpp"
 #include "systems/membrane_forces.hpp"
 #include "systems/propagation.hpp"
 #include "systems/regions.hpp"
@@ -96,6 +97,9 @@ struct Simulation::Impl {
 
   IntegrateParams integrate_params;
   ProjectiveSolverPtr solver;
+  ImplicitParams implicit_params;
+  ImplicitSolverPtr implicit;
+  bool use_projective = false;
   MembraneParams membrane;
   std::vector<BendingStencil> bending;
   uint64_t bending_version = ~uint64_t{0};
@@ -103,6 +107,14 @@ struct Simulation::Impl {
   ClusterParams cluster_params;
   PropagationParams propagation_params;
   RemeshParams remesh_params;
+  double max_tip_turn = 75.0 * 3.14159265358979323846 / 180.0;  // rad, largest turn of a tip per step
+  double shielding_radius = 0.01;  // m
+
+  bool shielded(const Vec2& uv) const {
+    for (const Tip& t : sheet.tips)
+      if ((sheet.verts.rest[t.vertex] - uv).norm() < shielding_radius) return true;
+    return false;
+  }
 
   int32_t frame = 0;
   std::vector<Vec3> targets_begin;  // finger targets at the start of the frame
@@ -140,10 +152,17 @@ struct Simulation::Impl {
     integrate_params.run = [this](int32_t count, int32_t grain, const RangeTask& task) {
       run_ranges(count, grain, task);
     };
+    implicit_params.dt = integrate_params.dt;
+    implicit_params.gravity = integrate_params.gravity;
+    implicit_params.mass_damping = m.damping;
+    implicit_params.grain = options.parallel_grain;
+    implicit_params.run = integrate_params.run;
+    use_projective = scenario.sim.solver == "projective";
     membrane = membrane_params(m);
     propagation_params.thickness = m.thickness;
     propagation_params.speed = m.speed;
     propagation_params.max_step = m.max_step;
+    propagation_params.min_step = std::min(m.min_step, m.max_step);
 
     update_finger_targets(0.0, sheet.hands, sheet.fingers);
     for (Finger& f : sheet.fingers) f.reaction.setZero();
@@ -214,8 +233,12 @@ struct Simulation::Impl {
     std::vector<int32_t> held;
     std::vector<Vec3> target;
     held_vertices(alpha, held, target);
-    prepare_projective_solver(sheet, integrate_params, solver);
-    integrate_substep(integrate_params, held, target, *solver, sheet);
+    if (use_projective) {
+      prepare_projective_solver(sheet, integrate_params, solver);
+      integrate_substep(integrate_params, held, target, *solver, sheet);
+    } else {
+      implicit_substep(implicit_params, held, target, implicit, sheet);
+    }
   }
 
   void run_physics() {
@@ -286,6 +309,10 @@ struct Simulation::Impl {
       const Vec2 uv = sheet.verts.rest[c.vertex];
       if (!visited.insert({uv.x(), uv.y()}).second) continue;
       if (c.tear >= 0 && extended.count(c.tear)) continue;
+      // Crack shielding: an active tip releases the stress around it, so no new tear starts within
+      // shielding_radius of one (otherwise the lips right behind a tip, loaded by the same stress
+      // field but discretised coarsely, spawn spurious branches every frame).
+      if (c.tear < 0 && c.kind != StartKind::Finger && shielded(uv)) continue;
 
       ForceClusters clusters;
       PropagationDecision decision;
@@ -299,6 +326,15 @@ struct Simulation::Impl {
                                       propagation_params);
       }
       if (!decision.propagate) continue;
+      // A tip cannot run back into its own lips: at a tear tip the interior angle is ~2π, so the
+      // "into the material" test alone would accept directions that fold the tear back on itself
+      // (they appear when φ ≈ π and the bisector is ill-conditioned).
+      if (c.tear >= 0) {
+        Vec2 previous = Vec2::Zero();
+        for (const Tip& t : sheet.tips)
+          if (t.tear == c.tear) previous = t.direction;
+        if (previous.squaredNorm() > 0 && previous.dot(decision.direction) < std::cos(max_tip_turn)) continue;
+      }
 
       CutResult cut;
       int32_t tear_id = c.tear;

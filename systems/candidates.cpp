@@ -31,7 +31,10 @@ bool candidate_kind(uint8_t flags, bool held_by_finger, StartKind& kind) {
 // Eq. 3: Ef(p) = c · T_fiber(u, v) · d_p with d_p = D at a tear tip and 1 elsewhere.
 double fracture_energy(const Material& material, const FiberField& fiber, const Vec2& uv, bool is_tip) {
   const double d = is_tip ? material.tip_damage : 1.0;
-  return material.fracture_c * fiber_sample(fiber, uv) * d;
+  // Eq. 3 with T_fiber lifted onto [fiber_floor, 1]: paper has weak spots but no holes, so the weakest
+  // fibres keep a share of c (fiber_floor = 0 is the paper's eq. 3 exactly).
+  const double t = material.fiber_floor + (1.0 - material.fiber_floor) * fiber_sample(fiber, uv);
+  return material.fracture_c * t * d;
 }
 
 void find_candidates_impl(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
@@ -70,7 +73,12 @@ void find_candidates_impl(const Vertices& verts, const std::vector<Tip>& tips, c
   for (int32_t v = 0; v < nv; ++v) {
     if (taken[v] || !(verts.flags[v] & kBoundary)) continue;
     Candidate c;
-    if (!candidate_kind(verts.flags[v], held[v], c.kind)) continue;
+    // The two lips of a tear turn apart, so their triangles always fall in different regions: that is
+    // the tear itself, not a junction of the surface. A lip vertex is a candidate only as an inward
+    // angle (a split vertex, where a branch may start, paper §5.3) or a finger.
+    uint8_t flags = verts.flags[v];
+    if (verts.tear[v] >= 0) flags &= static_cast<uint8_t>(~kJunction);
+    if (!candidate_kind(flags, held[v], c.kind)) continue;
     c.vertex = v;
     c.fracture_energy = fracture_energy(material, fiber, verts.rest[v], false);
     out.push_back(c);

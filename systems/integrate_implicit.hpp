@@ -1,0 +1,58 @@
+// Linearly implicit backward Euler with a corotated in-plane stiffness (Baraff & Witkin 1998; Müller &
+// Gross 2004 for the corotation), the default integrator of papertear.
+//
+// Why not projective dynamics (systems/integrate.hpp): paper's membrane is ~1e5 times stiffer than its
+// mass term. PD's global matrix penalises every relative motion of a triangle's corners alike, so the
+// bending motions that paper makes freely (isometric) converge only over hundreds of iterations and the
+// sheet carries a residual stretch of 1e-3 .. 1e-2, i.e. tens of newtons of spurious membrane force —
+// far above the ~1 N at which paper tears, so clustering and Griffith's test would read noise. Here the
+// stiffness of each triangle acts only in its current plane (R Rᵀ projection), so out-of-plane motion is
+// resisted by bending alone and one linear solve per substep gives membrane forces that balance the
+// fingers. The price: a numeric factorisation per substep (the symbolic one is reused until the topology
+// or the held set changes).
+//
+// Per substep, with h the substep, K the stiffness at the current state (rotations frozen), f the
+// membrane + bending forces and f_ext gravity:
+//   (M (1 + h α) + (h² + h β) K) v⁺ = M v + h (f + f_ext),   x⁺ = x + h v⁺,
+// held vertices (fingers) prescribed: v⁺ = (target − x)/h, eliminated from the system.
+#pragma once
+
+#include "components/sheet.hpp"
+#include "systems/bending_forces.hpp"
+#include "systems/membrane_forces.hpp"
+#include "systems/parallel.hpp"
+
+#include <memory>
+
+namespace pt {
+
+struct ImplicitParams {
+  double dt = 1.0 / 300;            // substep, s
+  Vec3 gravity = Vec3(0, 0, -9.81);
+  double mass_damping = 2.0;        // α, 1/s
+  double stiffness_damping = 1e-4;  // β, s (Rayleigh): damps in-plane ringing of the stiff membrane
+  RangeRunner run = run_serial;
+  int32_t grain = 512;
+};
+
+struct ImplicitSolver;
+struct ImplicitSolverDeleter {
+  void operator()(ImplicitSolver*) const;
+};
+using ImplicitSolverPtr = std::unique_ptr<ImplicitSolver, ImplicitSolverDeleter>;
+
+struct ImplicitStats {
+  int64_t analyses = 0;        // symbolic factorisations (topology or held set changed)
+  int64_t factorizations = 0;  // numeric factorisations (one per substep)
+  int64_t failures = 0;        // substeps rejected (the state was left unchanged)
+};
+const ImplicitStats& implicit_solver_stats(const ImplicitSolver& solver);
+
+// One substep. `held[i]` is prescribed to `held_target[i]` at the end of the substep. The solver is
+// (re)built when the topology version, the held set, the material or dt changed. Writes x, v and the
+// membrane corner forces of the state the step started from. Returns false and leaves x, v unchanged if
+// the factorisation failed or the result was not finite.
+bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& held,
+                      const std::vector<Vec3>& held_target, ImplicitSolverPtr& solver, Sheet& sheet);
+
+}  // namespace pt
