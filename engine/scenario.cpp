@@ -273,7 +273,7 @@ void read_detail(const Reader& r, const json& j, DetailSettings& d) {
 void read_sim(const Reader& r, const json& j, SimSettings& sim) {
   const std::string path = "sim";
   r.expect_object(j, path);
-  r.check_keys(j, path, {"fps", "substeps", "frames", "gravity", "iterations"});
+  r.check_keys(j, path, {"fps", "substeps", "frames", "gravity", "iterations", "solver"});
   if (j.contains("fps")) sim.fps = r.number(j["fps"], child(path, "fps"));
   if (j.contains("substeps"))
     sim.substeps = static_cast<int32_t>(r.integer(j["substeps"], child(path, "substeps"), 1, kMaxSubsteps));
@@ -282,6 +282,7 @@ void read_sim(const Reader& r, const json& j, SimSettings& sim) {
   if (j.contains("gravity")) sim.gravity = r.vec<3>(j["gravity"], child(path, "gravity"));
   if (j.contains("iterations"))
     sim.iterations = static_cast<int32_t>(r.integer(j["iterations"], child(path, "iterations"), 1, kMaxIterations));
+  if (j.contains("solver")) sim.solver = r.string(j["solver"], child(path, "solver"));
 }
 
 void read_fingers(const Reader& r, const json& j, std::vector<FingerSpec>& fingers) {
@@ -502,6 +503,8 @@ void validate_scenario(const Scenario& s) {
   check_int(file, "sim.frames", s.sim.frames, 1, kMaxFrames);
   check_int(file, "sim.iterations", s.sim.iterations, 1, kMaxIterations);
   check_vec(file, "sim.gravity", s.sim.gravity.data(), 3, kMaxGravity);
+  if (s.sim.solver != "implicit" && s.sim.solver != "projective")
+    fail(file, "sim.solver", "unknown solver \"" + s.sim.solver + "\" (implicit or projective)");
 
   // Fingers. None is fine in code (a sheet falling freely); files must have some (parse_scenario).
   for (size_t i = 0; i < s.fingers.size(); ++i) {

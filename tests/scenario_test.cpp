@@ -335,6 +335,21 @@ TEST(BadInput, NegativeSeed) {
   EXPECT_NE(message.find("sheet.mesh_seed: must be at least 0"), std::string::npos) << message;
 }
 
+TEST(Scenario, SolverIsRead) {
+  const pt::Scenario s = pt::parse_scenario(
+      R"({"sheet": {"preset": "A6"}, "sim": {"solver": "projective"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
+      "x.json");
+  EXPECT_EQ(s.sim.solver, "projective");
+  EXPECT_EQ(pt::SimSettings().solver, "implicit");
+}
+
+TEST(BadInput, UnknownSolver) {
+  const std::string message = error_of_text(
+      R"({"sheet": {"preset": "A6"}, "sim": {"solver": "euler"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
+      "x.json");
+  EXPECT_NE(message.find("sim.solver: unknown solver \"euler\""), std::string::npos) << message;
+}
+
 TEST(BadInput, UnsupportedVersion) {
   const std::string message = error_of_text(
       R"({"version": 2, "sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})", "x.json");
