@@ -241,12 +241,13 @@ void read_material(const Reader& r, const json& j, Material& m) {
   const std::string path = "material";
   r.expect_object(j, path);
   r.check_keys(j, path, {"thickness", "density", "young", "poisson", "bending_scale", "tip_damage", "fiber_seed",
-                         "fracture_c", "speed", "max_step", "damping", "fiber_scale"});
+                         "fracture_c", "speed", "max_step", "damping", "fiber_scale", "fiber_floor", "min_step"});
   const std::pair<const char*, double*> numbers[] = {
       {"thickness", &m.thickness},   {"density", &m.density},       {"young", &m.young},
       {"poisson", &m.poisson},       {"bending_scale", &m.bending_scale}, {"tip_damage", &m.tip_damage},
       {"fracture_c", &m.fracture_c}, {"speed", &m.speed},           {"max_step", &m.max_step},
-      {"damping", &m.damping},       {"fiber_scale", &m.fiber_scale}};
+      {"damping", &m.damping},       {"fiber_scale", &m.fiber_scale}, {"fiber_floor", &m.fiber_floor},
+      {"min_step", &m.min_step}};
   for (const auto& [key, dst] : numbers)
     if (j.contains(key)) *dst = r.number(j[key], child(path, key));
   if (j.contains("fiber_seed")) m.fiber_seed = r.seed(j["fiber_seed"], child(path, "fiber_seed"));
@@ -293,7 +294,7 @@ void read_fingers(const Reader& r, const json& j, std::vector<FingerSpec>& finge
     const std::string p = child(path, i);
     const json& f = j[i];
     r.expect_object(f, p);
-    r.check_keys(f, p, {"name", "at", "keys"});
+    r.check_keys(f, p, {"name", "at", "keys", "attach", "release"});
     FingerSpec spec;
     if (!f.contains("name")) fail(r.file, p, "missing name");
     spec.name = r.string(f["name"], child(p, "name"));
@@ -311,6 +312,9 @@ void read_fingers(const Reader& r, const json& j, std::vector<FingerSpec>& finge
         spec.keys.push_back(fk);
       }
     }
+    // A finger put on the sheet (or let go) during a session: a vertex is inserted at `at` then.
+    if (f.contains("attach")) spec.attach = r.number(f["attach"], child(p, "attach"));
+    if (f.contains("release")) spec.release = r.number(f["release"], child(p, "release"));
     fingers.push_back(std::move(spec));
   }
 }
@@ -487,6 +491,8 @@ void validate_scenario(const Scenario& s) {
   check_non_negative(file, "material.fracture_c", m.fracture_c);
   check_non_negative(file, "material.speed", m.speed);
   check_positive(file, "material.max_step", m.max_step);
+  check_range(file, "material.fiber_floor", m.fiber_floor, 0, 1, false);
+  check_non_negative(file, "material.min_step", m.min_step);
 
   // Detail.
   const auto& tex = s.detail.texture;
@@ -525,6 +531,8 @@ void validate_scenario(const Scenario& s) {
       check_vec(file, child(child(child(p, "keys"), k), size_t(1)), f.keys[k].position.data(), 3, kMaxCoordinate);
     }
     validate_key_times(file, child(p, "keys"), times);
+    if (!std::isfinite(f.attach) || f.attach < 0) fail(file, child(p, "attach"), "must be a time ≥ 0");
+    if (!(f.release > f.attach)) fail(file, child(p, "release"), "must come after attach");
   }
 
   // Hands.

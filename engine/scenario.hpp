@@ -37,6 +37,8 @@ struct FingerSpec {
   std::string name;
   Vec2 at = Vec2::Zero();
   std::vector<FingerKey> keys;
+  double attach = 0;         // s: put on the sheet then (0: from the start, a mesh vertex is placed at `at`)
+  double release = 1e300;    // s: let go then
 };
 
 struct HandSpec {

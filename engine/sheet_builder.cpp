@@ -24,7 +24,14 @@ Sheet build_sheet(const Scenario& scenario) {
   request.target_triangles = scenario.triangles;
   request.seed = scenario.mesh_seed;
   request.rotation_deg = scenario.mesh_rotation_deg;
-  for (const FingerSpec& f : scenario.fingers) request.required_points.push_back(f.at);
+  // Fingers put on from the start get a mesh vertex; later ones get theirs inserted when they attach
+  // (as in the interactive session that recorded them, so a replay meets the same mesh).
+  std::vector<int32_t> required_of(scenario.fingers.size(), -1);
+  for (size_t i = 0; i < scenario.fingers.size(); ++i)
+    if (scenario.fingers[i].attach <= 0) {
+      required_of[i] = static_cast<int32_t>(request.required_points.size());
+      request.required_points.push_back(scenario.fingers[i].at);
+    }
 
   std::vector<Vec2> rest;
   std::vector<Tri> tri;
@@ -45,12 +52,14 @@ Sheet build_sheet(const Scenario& scenario) {
     Finger f;
     f.name = spec.name;
     f.uv = spec.at;
-    f.vertex = required_vertex[i];
+    f.vertex = required_of[i] >= 0 ? required_vertex[required_of[i]] : -1;
     f.keys = spec.keys;
+    f.attach_time = spec.attach;
+    f.release_time = spec.release;
     f.start = Vec3(spec.at.x(), spec.at.y(), 0.0);
     f.target = f.start;
     sheet.fingers.push_back(f);
-    sheet.verts.flags[f.vertex] |= kFinger;
+    if (f.vertex >= 0) sheet.verts.flags[f.vertex] |= kFinger;
   }
   for (const HandSpec& spec : scenario.hands) {
     Hand h;

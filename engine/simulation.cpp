@@ -128,7 +128,7 @@ struct Simulation::Impl {
   int32_t remeshes = 0;
 
   tbb::task_arena arena;
-  tbb::flow::graph graph;
+  std::unique_ptr<tbb::flow::graph> graph;
   std::unique_ptr<tbb::flow::broadcast_node<tbb::flow::continue_msg>> start;
   std::vector<std::unique_ptr<tbb::flow::continue_node<tbb::flow::continue_msg>>> nodes;
 
@@ -166,7 +166,9 @@ struct Simulation::Impl {
 
     update_finger_targets(0.0, sheet.hands, sheet.fingers);
     for (Finger& f : sheet.fingers) f.reaction.setZero();
-    build_graph();
+    // A flow graph spawns its tasks in the arena it was made in: make it inside the sheet's own arena,
+    // or a sheet created by a batch worker would queue its nodes in the batch's arena and wait forever.
+    arena.execute([&] { build_graph(); });
   }
 
   // Kernels split [0, count) into fixed ranges of `grain`; each range writes its own outputs, so the
@@ -209,6 +211,7 @@ struct Simulation::Impl {
           continue;
         }
         f.start = sheet.verts.x[f.vertex];
+        if (f.keys.empty()) f.target = f.start;  // hold the sheet where it was grabbed
         changed = true;
       }
       if (f.vertex >= 0 && f.release_time <= t) {
@@ -412,13 +415,14 @@ struct Simulation::Impl {
 
   tbb::flow::continue_node<tbb::flow::continue_msg>& node(std::function<void()> body) {
     nodes.push_back(std::make_unique<tbb::flow::continue_node<tbb::flow::continue_msg>>(
-        graph, [body = std::move(body)](const tbb::flow::continue_msg&) { body(); }));
+        *graph, [body = std::move(body)](const tbb::flow::continue_msg&) { body(); }));
     return *nodes.back();
   }
 
   void build_graph() {
     using tbb::flow::make_edge;
-    start = std::make_unique<tbb::flow::broadcast_node<tbb::flow::continue_msg>>(graph);
+    graph = std::make_unique<tbb::flow::graph>();
+    start = std::make_unique<tbb::flow::broadcast_node<tbb::flow::continue_msg>>(*graph);
     auto& fingers = node([this] { run_fingers(); });
     auto& physics = node([this] { run_physics(); });
     auto& forces = node([this] { run_forces(); });
@@ -443,7 +447,7 @@ struct Simulation::Impl {
     const auto t0 = Clock::now();
     arena.execute([&] {
       start->try_put(tbb::flow::continue_msg());
-      graph.wait_for_all();
+      graph->wait_for_all();
     });
     ++frame;
     profile.frame = ms_since(t0);

@@ -50,12 +50,14 @@ std::vector<int32_t> vertices_of(const std::vector<Candidate>& c) {
   return v;
 }
 
-// Eq. 3 against the fiber field itself: Ef / (c · d) is T_fiber at the vertex, in [0, 1].
+// Eq. 3 against the fiber field itself: Ef / (c · d) is T_fiber at the vertex lifted onto
+// [fiber_floor, 1] (material.fiber_floor = 0 is the paper's eq. 3 exactly).
 void expect_fracture_energy(const Sheet& s, const FiberField& fiber, const Candidate& c, double d) {
   const double t = c.fracture_energy / (s.material.fracture_c * d);
-  EXPECT_GE(t, 0.0) << c.vertex;
+  const double floor = s.material.fiber_floor;
+  EXPECT_GE(t, floor) << c.vertex;
   EXPECT_LE(t, 1.0) << c.vertex;
-  EXPECT_NEAR(t, fiber_sample(fiber, s.verts.rest[c.vertex]), 1e-15) << c.vertex;
+  EXPECT_NEAR(t, floor + (1 - floor) * fiber_sample(fiber, s.verts.rest[c.vertex]), 1e-14) << c.vertex;
 }
 
 }  // namespace
@@ -129,8 +131,11 @@ TEST(Candidates, ActiveTipsFirstWithDamage) {
   expect_fracture_energy(s, fiber, out[0], s.material.tip_damage);
   expect_fracture_energy(s, fiber, out[1], s.material.tip_damage);
   expect_fracture_energy(s, fiber, out[2], 1.0);
+  const double floor = s.material.fiber_floor;
   EXPECT_NEAR(out[0].fracture_energy,
-              s.material.fracture_c * fiber_sample(fiber, s.verts.rest[6]) * s.material.tip_damage, 1e-12);
+              s.material.fracture_c * (floor + (1 - floor) * fiber_sample(fiber, s.verts.rest[6])) *
+                  s.material.tip_damage,
+              1e-9);
 
   // With the tears, a tip's kind is its tear's start kind.
   std::vector<Candidate> with_tears;
@@ -166,4 +171,26 @@ TEST(Candidates, FractureEnergyScalesWithMaterial) {
   m.tip_damage = 0;
   find_candidates(s.verts, s.tips, s.fingers, m, fiber, b);
   EXPECT_EQ(b[0].fracture_energy, 0.0);
+}
+
+// The lips of a tear separate and so always touch two regions: that is the tear, not a junction; a lip
+// vertex stays a candidate only as an inward angle or a finger. A fiber floor of 0 is eq. 3 exactly.
+TEST(Candidates, LipVerticesAreNotJunctionsAndFloorZeroIsEquationThree) {
+  Sheet s;
+  s.verts.resize(4);
+  s.verts.rest = {Vec2(0, 0), Vec2(1, 0), Vec2(1, 1), Vec2(0, 1)};
+  s.tris.resize(2);
+  s.tris.tri = {Tri{0, 1, 2}, Tri{0, 2, 3}};
+  refresh_after_topology_change(s);
+  s.verts.flags[1] |= kJunction;
+  s.verts.flags[2] |= kJunction;
+  s.verts.tear[2] = 0;  // vertex 2 is on the lip of tear 0
+  s.material.fiber_floor = 0;
+  FiberField fiber;
+  std::vector<Candidate> out;
+  find_candidates(s.verts, {}, {}, s.material, fiber, out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].vertex, 1);
+  EXPECT_EQ(out[0].kind, StartKind::Junction);
+  EXPECT_NEAR(out[0].fracture_energy, s.material.fracture_c * fiber_sample(fiber, s.verts.rest[1]), 1e-9);
 }
