@@ -325,8 +325,10 @@ struct Simulation::Impl {
       }
       {
         ScopedTimer timer(profile.propagation);
-        decision = decide_propagation(clusters, sheet.topo, sheet.verts.rest, c.vertex, c.fracture_energy,
-                                      propagation_params);
+        PropagationParams params = propagation_params;
+        for (const Tip& t : sheet.tips)
+          if (c.tear >= 0 && t.tear == c.tear) params.previous_direction = t.direction;
+        decision = decide_propagation(clusters, sheet.topo, sheet.verts.rest, c.vertex, c.fracture_energy, params);
       }
       if (!decision.propagate) continue;
       // A tip cannot run back into its own lips: at a tear tip the interior angle is ~2π, so the

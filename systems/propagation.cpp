@@ -52,10 +52,26 @@ PropagationDecision decide_propagation(const ForceClusters& clusters, const Topo
   // the other way along their bisector (Fig. 7); with fixed pulling points A and B this is the tangent of
   // the hyperbola |PA| − |PB| = const (O'Keefe 1994).
   if (!(nl > 0) || !(nr > 0)) return d;
-  const Vec2 sum = fl / nl + fr / nr;
+  const Vec2 ul = fl / nl, ur = fr / nr;
+  const Vec2 sum = ul + ur;
   const double sum_norm = sum.norm();
   if (!(sum_norm > kOppositeTolerance)) return d;
-  d.direction = -sum / sum_norm;
+  // For unit vectors (û_l + û_r) ⟂ (û_l − û_r), so the bisector line is also the normal of the
+  // difference. Near φ = π the sum is a small difference of two noisy vectors (its length is
+  // 2 cos(φ/2)) while the difference has length ≈ 2: taking the line from the difference keeps the
+  // direction exact as φ → π (the mode-I opening direction); the sum only chooses the sense, and
+  // when it is too short to do so reliably, the previous direction of the tear does.
+  const Vec2 diff = ul - ur;
+  if (sum_norm >= diff.norm()) {
+    d.direction = -sum / sum_norm;  // φ ≤ π/2: the sum is the better conditioned of the two
+  } else {
+    Vec2 line(-diff.y(), diff.x());
+    line.normalize();
+    double sense = -line.dot(sum);
+    if (sum_norm < params.sense_threshold && params.previous_direction.squaredNorm() > 0)
+      sense = line.dot(params.previous_direction);
+    d.direction = sense >= 0 ? line : Vec2(-line);
+  }
 
   // Into the material: t strictly between the boundary directions to next and to prev, measured
   // counter-clockwise from next (the sheet is on the left of prev → p → next), which also covers

@@ -11,6 +11,10 @@ struct PropagationParams {
   double speed = 2e-7;      // k: p_next = p + k · Er · t
   double max_step = 0.01;   // m
   double min_step = 0;      // m; steps shorter than this are lengthened to it (avoid slivers)
+  // Direction of the tear's last segment (unit, zero for a new tear). When |F̂̄_l + F̂̄_r| is below
+  // sense_threshold (φ near π) the sense of t along the bisector line follows it.
+  Vec2 previous_direction = Vec2::Zero();
+  double sense_threshold = 0.3;
   double angle_tolerance = 1e-9;  // rad; t within this of a boundary direction at p is not "into" the sheet
 };
 
