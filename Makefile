@@ -2,8 +2,9 @@
 BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
+SAN_JOBS ?= 2
 
-.PHONY: deps configure build demo test bench clean
+.PHONY: deps configure build demo test bench clean check-sanitize fuzz soak
 
 deps:
 	@bash scripts/install-deps.sh
@@ -23,6 +24,20 @@ test: build
 
 bench: build
 	@bash scripts/run-bench.sh $(BUILD)
+
+# Reliability (issue 9). Each uses its own build directory (build-asan, build-tsan, build-fuzz, build-soak).
+# ASan+UBSan over the whole suite, then TSan over the threaded tests.
+check-sanitize: deps
+	@JOBS=$(SAN_JOBS) bash scripts/check-sanitize.sh all
+
+# libFuzzer targets (Debian clang): each runs FUZZ_SECONDS on its seed corpus (tests/fuzz/corpus/<target>).
+FUZZ_SECONDS ?= 60
+fuzz: deps
+	@JOBS=$(SAN_JOBS) FUZZ_SECONDS=$(FUZZ_SECONDS) bash scripts/fuzz.sh
+
+# 10 000 frames of tests/soak/soak.json: NaN, peak RSS, frame time vs triangles; bench/results/soak-<date>.txt.
+soak: deps
+	@JOBS=$(SAN_JOBS) bash scripts/soak.sh
 
 clean:
 	rm -rf $(BUILD)

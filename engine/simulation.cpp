@@ -459,8 +459,10 @@ struct Simulation::Impl {
   }
 };
 
+// Scenarios built in code (viewer, embedding, batches) get the same checks as files: a reversed key or a
+// NaN target would otherwise run (issue 9, tests/hostile_test.cpp).
 Simulation::Simulation(const Scenario& scenario, const EngineOptions& options)
-    : impl_(std::make_unique<Impl>(scenario, options)) {}
+    : impl_((validate_scenario(scenario), std::make_unique<Impl>(scenario, options))) {}
 Simulation::~Simulation() = default;
 
 void Simulation::step() { impl_->step(); }
