@@ -1,0 +1,268 @@
+// Python bindings of the engine (issue 8): `import papertear`.
+//
+// Arrays are numpy VIEWS of the sheet's own arrays (no copy), read-only, kept alive by the Simulation
+// object they came from, and they follow stepping. When the topology changes (a tear is cut, a finger is
+// attached) rows are inserted or renumbered and a view taken before has the old shape: take the property
+// again when `Simulation.topology_version` changes. A view never dangles: the wrapper keeps capacity
+// ahead of the engine's growth (the engine only push_backs/resizes, it never reassigns these vectors), and
+// when it must grow an array it moves the old storage into a graveyard that lives as long as the
+// Simulation, so an old view goes stale but stays readable.
+#include "engine/papertear.hpp"
+
+#include <nlohmann/json.hpp>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <array>
+#include <memory>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+
+namespace {
+
+// A read-only (rows, cols) view of `data`, owned by `owner` (the Python Simulation).
+template <typename T>
+py::array view(const T* data, size_t rows, size_t cols, size_t row_stride_bytes, py::handle owner) {
+  std::vector<py::ssize_t> shape{static_cast<py::ssize_t>(rows), static_cast<py::ssize_t>(cols)};
+  std::vector<py::ssize_t> strides{static_cast<py::ssize_t>(row_stride_bytes),
+                                   static_cast<py::ssize_t>(sizeof(T))};
+  if (rows == 0) return py::array_t<T>(shape);  // empty: no data pointer to share
+  py::array a(py::dtype::of<T>(), shape, strides, data, owner);
+  a.attr("setflags")("write"_a = false);
+  return a;
+}
+
+py::list points(const std::vector<pt::Vec2>& ps) {
+  py::list out;
+  for (const pt::Vec2& p : ps) out.append(py::make_tuple(p.x(), p.y()));
+  return out;
+}
+
+py::dict stat(const pt::TimingStat& s) { return py::dict("avg"_a = s.avg(), "max"_a = s.max, "count"_a = s.count); }
+
+pt::Scenario scenario_from(const py::object& src) {
+  if (py::isinstance<pt::Scenario>(src)) return src.cast<pt::Scenario>();
+  // str or os.PathLike
+  const std::string path = py::str(py::module_::import("os").attr("fspath")(src));
+  return pt::load_scenario(path);
+}
+
+// The Python Simulation: the engine plus the storage views may still point to.
+struct PySim {
+  std::unique_ptr<pt::Simulation> sim;
+  std::vector<std::vector<pt::Vec3>> old_x;
+  std::vector<std::vector<pt::Vec2>> old_rest;
+  std::vector<std::vector<pt::Tri>> old_tri;
+  std::vector<std::vector<int32_t>> old_piece;
+
+  // Before anything that may add vertices or triangles: at least 2n + 1024 free rows, else grow to
+  // 4n + 1024 (amortised; the graveyard is at most about the final size).
+  template <typename T>
+  static void headroom(std::vector<T>& v, std::vector<std::vector<T>>& graveyard) {
+    const size_t n = v.size();
+    if (v.capacity() >= 2 * n + 1024) return;
+    std::vector<T> bigger;
+    bigger.reserve(4 * n + 1024);
+    bigger.assign(v.begin(), v.end());
+    if (v.capacity() > 0) graveyard.push_back(std::move(v));
+    v = std::move(bigger);
+  }
+  void make_room() {
+    pt::Sheet& s = sim->mutable_sheet();
+    headroom(s.verts.x, old_x);
+    headroom(s.verts.rest, old_rest);
+    headroom(s.tris.tri, old_tri);
+    headroom(s.tris.piece, old_piece);
+  }
+};
+
+PySim& py_of(const py::object& self) { return self.cast<PySim&>(); }
+const pt::Simulation& sim_of(const py::object& self) { return *py_of(self).sim; }
+
+}  // namespace
+
+PYBIND11_MODULE(papertear, m) {
+  m.doc() = "papertear: paper torn by fingers (Schreck, Rohmer & Hahmann, Interactive paper tearing, 2017)";
+
+  // "<file>: <json path>: <problem>"; both are ValueErrors.
+  py::register_exception<pt::InputError>(m, "InputError", PyExc_ValueError);
+  py::register_exception<pt::GeometryError>(m, "GeometryError", PyExc_ValueError);
+
+  py::class_<pt::Scenario>(m, "Scenario", "A scenario (DESIGN §6), loaded and validated.")
+      .def_readwrite("name", &pt::Scenario::name)
+      .def_readonly("path", &pt::Scenario::path)
+      .def_readonly("description", &pt::Scenario::description)
+      .def_readwrite("triangles", &pt::Scenario::triangles)
+      .def_readwrite("mesh_seed", &pt::Scenario::mesh_seed)
+      .def_readwrite("mesh_rotation_deg", &pt::Scenario::mesh_rotation_deg)
+      .def_property(
+          "frames", [](const pt::Scenario& s) { return s.sim.frames; },
+          [](pt::Scenario& s, int32_t n) { s.sim.frames = n; })
+      .def_property(
+          "fps", [](const pt::Scenario& s) { return s.sim.fps; }, [](pt::Scenario& s, double v) { s.sim.fps = v; })
+      .def_property(
+          "fiber_seed", [](const pt::Scenario& s) { return s.material.fiber_seed; },
+          [](pt::Scenario& s, uint64_t v) { s.material.fiber_seed = v; })
+      .def_property_readonly("outline", [](const pt::Scenario& s) { return points(s.outline); })
+      .def_property_readonly("fingers",
+                             [](const pt::Scenario& s) {
+                               py::list out;
+                               for (const pt::FingerSpec& f : s.fingers)
+                                 out.append(py::dict("name"_a = f.name, "at"_a = py::make_tuple(f.at.x(), f.at.y())));
+                               return out;
+                             })
+      .def("validate", &pt::validate_scenario, "Raises InputError when a value set in code is invalid.")
+      .def("__repr__", [](const pt::Scenario& s) { return "<papertear.Scenario '" + s.name + "'>"; });
+
+  m.def("load_scenario", &pt::load_scenario, "path"_a, "Load and validate a scenario file; raises InputError.");
+  m.def("parse_scenario", &pt::parse_scenario, "json_text"_a, "path_for_messages"_a = "<string>",
+        "Parse and validate scenario JSON text; raises InputError.");
+
+  py::class_<PySim>(m, "Simulation", "One simulated sheet.")
+      .def(py::init([](const py::object& src, int32_t threads, bool check_invariants) {
+             pt::EngineOptions options;
+             options.threads = threads;
+             options.check_invariants = check_invariants;
+             pt::Scenario scenario = scenario_from(src);
+             auto p = std::make_unique<PySim>();
+             {
+               py::gil_scoped_release release;
+               p->sim = std::make_unique<pt::Simulation>(scenario, options);
+             }
+             p->make_room();
+             return p;
+           }),
+           "scenario"_a, "threads"_a = 2, "check_invariants"_a = false,
+           "From a scenario file path or a Scenario. Raises InputError / GeometryError.")
+      .def(
+          "step",
+          [](PySim& p, int32_t n) {
+            py::gil_scoped_release release;
+            for (int32_t i = 0; i < n; ++i) {
+              p.make_room();
+              p.sim->step();
+            }
+          },
+          "n"_a = 1, "Advance n frames.")
+      .def(
+          "flush",
+          [](PySim& p) {
+            py::gil_scoped_release release;
+            p.sim->flush();
+          },
+          "Carve the last frame's segments (tears' `detail` complete).")
+      .def_property_readonly("frame", [](const PySim& p) { return p.sim->frame(); })
+      .def_property_readonly("time", [](const PySim& p) { return p.sim->time(); })
+      .def_property_readonly("threads", [](const PySim& p) { return p.sim->threads(); })
+      .def_property_readonly("scenario", [](const PySim& p) { return p.sim->scenario(); })
+      .def_property_readonly("hash", [](const PySim& p) { return p.sim->state_hash(); }, "Hex digest of the current state.")
+      .def_property_readonly("topology_version", [](const PySim& p) { return p.sim->sheet().topology_version; },
+                             "Changes whenever vertices/triangles are inserted: views taken before are stale.")
+      // Views (no copy).
+      .def_property_readonly(
+          "positions",
+          [](py::object self) {
+            const auto& x = sim_of(self).sheet().verts.x;
+            return view<double>(x.empty() ? nullptr : x.front().data(), x.size(), 3, sizeof(pt::Vec3), self);
+          },
+          "(n, 3) float64 view of the 3D vertex positions, m.")
+      .def_property_readonly(
+          "rest",
+          [](py::object self) {
+            const auto& r = sim_of(self).sheet().verts.rest;
+            return view<double>(r.empty() ? nullptr : r.front().data(), r.size(), 2, sizeof(pt::Vec2), self);
+          },
+          "(n, 2) float64 view of the pattern (u, v) coordinates, m.")
+      .def_property_readonly(
+          "triangles",
+          [](py::object self) {
+            const auto& t = sim_of(self).sheet().tris.tri;
+            return view<int32_t>(t.empty() ? nullptr : t.front().data(), t.size(), 3, sizeof(pt::Tri), self);
+          },
+          "(m, 3) int32 view of the triangles' vertex ids.")
+      .def_property_readonly(
+          "triangle_pieces",
+          [](py::object self) {
+            const auto& p = sim_of(self).sheet().tris.piece;
+            return view<int32_t>(p.data(), p.size(), 1, sizeof(int32_t), self).attr("reshape")(-1);
+          },
+          "(m,) int32 view: connected piece id of each triangle.")
+      .def_property_readonly("pieces", [](const PySim& p) { return p.sim->sheet().topo.piece_count; })
+      .def_property_readonly(
+          "tears",
+          [](const PySim& p) {
+            const pt::Simulation& s = *p.sim;
+            py::list out;
+            for (const pt::Tear& t : s.sheet().tears)
+              out.append(py::dict("id"_a = t.id, "parent"_a = t.parent < 0 ? py::object(py::none()) : py::int_(t.parent),
+                                  "kind"_a = pt::to_string(t.start_kind), "frame"_a = t.start_frame,
+                                  "uv"_a = py::make_tuple(t.start_uv.x(), t.start_uv.y()), "tips"_a = points(t.tips),
+                                  "detail"_a = points(t.detail), "reached_boundary"_a = t.reached_boundary));
+            return out;
+          },
+          "Tears: id, parent (None), kind (finger|junction|inward), frame, uv, tips, detail (after flush()).")
+      .def_property_readonly(
+          "events",
+          [](const PySim& p) {
+            const pt::Simulation& s = *p.sim;
+            py::list out;
+            for (const pt::TearEvent& e : s.events())
+              out.append(py::dict("kind"_a = pt::to_string(e.kind), "tear"_a = e.tear, "frame"_a = e.frame));
+            return out;
+          },
+          "All events so far: kind (tear_started|tear_extended|piece_separated), tear, frame.")
+      .def_property_readonly(
+          "fingers",
+          [](const PySim& p) {
+            const pt::Simulation& s = *p.sim;
+            py::list out;
+            for (const pt::Finger& f : s.sheet().fingers)
+              out.append(py::dict("name"_a = f.name, "uv"_a = py::make_tuple(f.uv.x(), f.uv.y()), "vertex"_a = f.vertex,
+                                  "target"_a = py::make_tuple(f.target.x(), f.target.y(), f.target.z()),
+                                  "reaction"_a = py::make_tuple(f.reaction.x(), f.reaction.y(), f.reaction.z()),
+                                  "max_force"_a = f.max_force, "released"_a = f.released));
+            return out;
+          })
+      .def_property_readonly(
+          "timings",
+          [](const PySim& p) {
+            const pt::Simulation& s = *p.sim;
+            const pt::TimingReport& r = s.timings();
+            py::dict systems;
+            for (size_t i = 0; i < pt::kSystemNames.size(); ++i) systems[pt::kSystemNames[i]] = stat(r.systems[i]);
+            return py::dict("physics"_a = stat(r.physics), "geometry"_a = stat(r.geometry), "tearing"_a = stat(r.tearing),
+                            "carving"_a = stat(r.carving), "frame"_a = stat(r.frame), "systems"_a = systems);
+          },
+          "Milliseconds per frame: Table 1 groups and per system, {'avg', 'max', 'count'}.")
+      .def(
+          "result",
+          [](const PySim& p) {
+            const pt::Simulation& s = *p.sim;
+            nlohmann::ordered_json doc;
+            pt::build_result_json(s, doc);
+            return py::module_::import("json").attr("loads")(doc.dump());
+          },
+          "The result.json document (DESIGN §7) as a dict; call flush() first for complete tear details.")
+      .def("write_result", [](const PySim& p, const std::string& path) { return pt::write_result_json(*p.sim, path); }, "path"_a, "Write result.json; returns True when status is ok.")
+      // Fingers.
+      .def(
+          "attach_finger",
+          [](PySim& p, const std::string& name, std::array<double, 2> uv) {
+            p.make_room();
+            const int32_t i = p.sim->attach_finger(name, pt::Vec2(uv[0], uv[1]));
+            if (i < 0) throw py::value_error("attach_finger: (" + std::to_string(uv[0]) + ", " + std::to_string(uv[1]) +
+                                             ") is outside the sheet");
+            return i;
+          },
+          "name"_a, "uv"_a, "Put a finger on the pattern point uv now; returns its index (a vertex is inserted).")
+      .def(
+          "move_finger",
+          [](PySim& p, int32_t finger, std::array<double, 3> x) { p.sim->move_finger(finger, pt::Vec3(x[0], x[1], x[2])); },
+          "finger"_a, "target"_a, "The finger reaches target (world, m) at the end of the next frame.")
+      .def("release_finger", [](PySim& p, int32_t finger) { p.sim->release_finger(finger); }, "finger"_a);
+}
