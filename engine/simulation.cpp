@@ -15,6 +15,7 @@
 #include "systems/membrane_forces.hpp"
 #include "systems/propagation.hpp"
 #include "systems/regions.hpp"
+#include "systems/mesh_quality.hpp"
 #include "systems/remeshing.hpp"
 #include "systems/topology.hpp"
 #include "systems/vertex_insertion.hpp"
@@ -358,6 +359,7 @@ struct Simulation::Impl {
         const double area_before = options.check_invariants ? total_rest_area(sheet.tris) : -1.0;
         cut = cut_tear_segment(c.vertex, decision.next, previous, tear_id, remesh_params, sheet);
         if (!cut.cut) continue;
+        if (options.delaunay_flips) flip_towards_delaunay_near_new_vertices(FlipParams{}, sheet);
         ++remeshes;
         if (options.check_invariants) {
           const std::string problem = check_mesh_invariants(sheet, area_before);

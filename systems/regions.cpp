@@ -47,17 +47,66 @@ RegionSummary classify_regions(const std::vector<Vec3>& x, const std::vector<Tri
                                std::vector<Region>& regions, std::vector<uint8_t>& flags) {
   const int32_t nt = static_cast<int32_t>(tri.size());
   const int32_t nv = static_cast<int32_t>(flags.size());
-  std::vector<double> bending;
-  triangle_bending(x, tri, topo, bending);
+  std::vector<double> raw;
+  triangle_bending(x, tri, topo, raw);
+  // A coarse sheet wrinkles at the scale of its triangles (paper is floppy), so one triangle's bending
+  // flips sign from neighbour to neighbour. Regions are about the shape at the scale of the hands:
+  // average each triangle with its edge neighbours (area-weighted) smoothing_passes times.
+  std::vector<double> bending = raw, next(nt);
+  std::vector<double> area(nt);
+  for (int32_t t = 0; t < nt; ++t)
+    area[t] = 0.5 * (x[tri[t][1]] - x[tri[t][0]]).cross(x[tri[t][2]] - x[tri[t][0]]).norm();
+  for (int32_t pass = 0; pass < params.smoothing_passes; ++pass) {
+    for (int32_t t = 0; t < nt; ++t) {
+      double sum = area[t] * bending[t], w = area[t];
+      for (int32_t o : topo.neighbor[t])
+        if (o >= 0) sum += area[o] * bending[o], w += area[o];
+      next[t] = w > 0 ? sum / w : bending[t];
+    }
+    bending.swap(next);
+  }
   std::vector<RegionKind> kind(nt, RegionKind::Flat);
   for (int32_t t = 0; t < nt; ++t) {
     if (bending[t] > params.flat_curvature) kind[t] = RegionKind::CurvedPositive;
     else if (bending[t] < -params.flat_curvature) kind[t] = RegionKind::CurvedNegative;
   }
   // Connected components of equal kind, seeded in ascending triangle order (deterministic ids).
+  // Components smaller than min_region_triangles take the kind of the neighbouring component they
+  // share most edges with (noise, not a region of the surface), then components are formed again.
+  std::vector<int32_t> stack;
+  for (int32_t round = 0; round < 2 && params.min_region_triangles > 1; ++round) {
+    std::vector<int32_t> comp(nt, -1);
+    std::vector<std::vector<int32_t>> members;
+    for (int32_t s0 = 0; s0 < nt; ++s0) {
+      if (comp[s0] >= 0) continue;
+      const int32_t id = static_cast<int32_t>(members.size());
+      members.emplace_back();
+      comp[s0] = id;
+      stack.push_back(s0);
+      while (!stack.empty()) {
+        const int32_t t = stack.back();
+        stack.pop_back();
+        members[id].push_back(t);
+        for (int32_t o : topo.neighbor[t])
+          if (o >= 0 && comp[o] < 0 && kind[o] == kind[s0]) comp[o] = id, stack.push_back(o);
+      }
+    }
+    bool changed = false;
+    for (const auto& m : members) {
+      if (static_cast<int32_t>(m.size()) >= params.min_region_triangles) continue;
+      int32_t votes[3] = {0, 0, 0};
+      for (int32_t t : m)
+        for (int32_t o : topo.neighbor[t])
+          if (o >= 0 && kind[o] != kind[t]) ++votes[static_cast<int>(kind[o])];
+      const int best = static_cast<int>(std::max_element(votes, votes + 3) - votes);
+      if (votes[best] == 0) continue;  // a whole piece of its own: keep it
+      for (int32_t t : m) kind[t] = static_cast<RegionKind>(best);
+      changed = true;
+    }
+    if (!changed) break;
+  }
   tri_region.assign(nt, -1);
   regions.clear();
-  std::vector<int32_t> stack;
   for (int32_t s = 0; s < nt; ++s) {
     if (tri_region[s] >= 0) continue;
     const int32_t id = static_cast<int32_t>(regions.size());

@@ -11,7 +11,10 @@ namespace pt {
 struct RegionParams {
   double flat_curvature = 8.0;       // 1/m: |mean bending| below this is flat (radius > 12.5 cm)
   double singular_curvature = 150.0; // 1/m: bending at an interior vertex above this marks a singular point
-  int32_t min_region_triangles = 1;  // smaller curved regions are merged into flat (noise)
+  // Neighbour averages of the bending before classification. Off by default: two passes removed the
+  // junctions of the Fig. 12/13 scenarios along with the noise (measured); merging small regions is kept.
+  int32_t smoothing_passes = 0;
+  int32_t min_region_triangles = 6;  // smaller components join their main neighbour (mesh-scale noise)
 };
 
 // Signed bending of each triangle: Σ over its interior edges of θ_e·|e| / (2·A₃ᴰ)·½, with θ_e the signed

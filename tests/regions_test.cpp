@@ -137,3 +137,30 @@ TEST(Regions, IdsAreDeterministic) {
   EXPECT_EQ(a, b);
   EXPECT_EQ(fa, fb);
 }
+
+// Mesh-scale noise: a lone curved triangle in a flat sheet joins the flat region (min_region_triangles),
+// and smoothing passes spread and shrink a one-triangle spike.
+TEST(Regions, SmallRegionsMergeIntoTheirNeighbour) {
+  Sheet s = test::grid_sheet(0.2, 0.1, 20, 10);
+  // Lift one interior vertex: its fan bends, a few triangles' worth of "curvature".
+  const int32_t v = 5 * 21 + 10;
+  s.verts.x[v].z() = 0.002;
+  RegionParams keep;
+  keep.min_region_triangles = 1;
+  std::vector<int32_t> tri_region;
+  std::vector<Region> regions;
+  std::vector<uint8_t> flags = s.verts.flags;
+  const RegionSummary raw = classify_regions(s.verts.x, s.tris.tri, s.topo, keep, tri_region, regions, flags);
+  EXPECT_GT(raw.regions, 1);
+  RegionParams merge;
+  merge.min_region_triangles = 12;
+  const RegionSummary merged = classify_regions(s.verts.x, s.tris.tri, s.topo, merge, tri_region, regions, flags);
+  EXPECT_EQ(merged.regions, 1);
+  EXPECT_EQ(regions[0].kind, RegionKind::Flat);
+  std::vector<double> before, after;
+  triangle_bending(s.verts.x, s.tris.tri, s.topo, before);
+  RegionParams smooth = keep;
+  smooth.smoothing_passes = 2;
+  const RegionSummary smoothed = classify_regions(s.verts.x, s.tris.tri, s.topo, smooth, tri_region, regions, flags);
+  EXPECT_LE(smoothed.regions, raw.regions);
+}
