@@ -52,6 +52,18 @@ class Bindings(unittest.TestCase):
         self.assertEqual(sim.pieces, 1)
         self.assertEqual(sim.tears, [])
 
+    def test_scenario_edited_in_code(self):
+        sc = papertear.load_scenario(SCENARIO)
+        sc.triangles = 150
+        sc.validate()
+        sim = papertear.Simulation(sc, threads=1)
+        self.assertLess(sim.triangles.shape[0], 250)
+        sc.fps = -1.0
+        with self.assertRaises(papertear.InputError):
+            sc.validate()
+        with self.assertRaises(ValueError):
+            papertear.Simulation(SCENARIO, threads=0)
+
     def test_view_follows_stepping(self):
         sim = papertear.Simulation(SCENARIO, threads=2)
         x = sim.positions
