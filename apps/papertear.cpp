@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <memory>
 #include <iostream>
 #include <mutex>
 #include <string>
@@ -172,15 +173,23 @@ int run_command(const RunOptions& opt) {
   fs::remove(result_path, ec);
 
   fs::path frames_dir;
-  if (opt.obj) frames_dir = out.begin_frames();
+  std::unique_ptr<pt::TexturedObjWriter> obj_writer;
+  if (opt.obj) {
+    frames_dir = out.begin_frames();
+    obj_writer = std::make_unique<pt::TexturedObjWriter>(frames_dir.string());
+  }
   {
     Progress progress(scenario.sim.frames);
     for (int32_t f = 0; f < scenario.sim.frames; ++f) {
       sim.step();
       if (opt.obj) {
-        char name[32];
-        std::snprintf(name, sizeof name, "frame_%04d.obj", sim.frame());
-        pt::write_obj(sim, (frames_dir / name).string());
+        // Textured frames (OBJ + MTL, paper.png once, the carved atlas when carving changed): carve this
+        // frame's segments now (the carving node would do it beside the next frame's physics; the result
+        // is the same) so each frame shows its own tear.
+        sim.flush();
+        char stem[32];
+        std::snprintf(stem, sizeof stem, "frame_%04d", sim.frame());
+        obj_writer->write(sim, stem);
       }
       progress.update(f + 1);
     }
@@ -201,7 +210,8 @@ int run_command(const RunOptions& opt) {
   }
   if (opt.obj) {
     out.end_frames();
-    written.push_back((out.path() / "frames").string() + "/ (" + plural(sim.frame(), "OBJ frame") + ")");
+    written.push_back((out.path() / "frames").string() + "/ (" + plural(sim.frame(), "textured OBJ frame") + ", " +
+                      plural(obj_writer->carved_textures_written(), "carved texture") + ")");
   }
   // result.json last: its presence means the run completed.
   const bool finite = pt::write_result_json(sim, result_path.string());
@@ -291,7 +301,7 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--frames", run.frames, "frames to simulate (default: the scenario's)")
       ->check(CLI::Range(1, 10'000'000));
   run_cmd->add_option("--threads", run.threads, "worker threads (default: 2)")->check(CLI::Range(1, 1024));
-  run_cmd->add_flag("--obj", run.obj, "write DIR/frames/frame_NNNN.obj for every frame");
+  run_cmd->add_flag("--obj", run.obj, "write DIR/frames/frame_NNNN.obj + .mtl for every frame (textured: paper.png, carved_NNNN.png)");
   run_cmd->add_flag("--svg", run.svg, "write DIR/pattern.svg (mesh, regions, candidates, fingers, tears)");
   run_cmd->add_flag("--png", run.png, "write DIR/pattern.png (the pattern with detailed tears at texture resolution)");
 

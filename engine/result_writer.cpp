@@ -3,12 +3,14 @@
 #include "engine/result_writer.hpp"
 
 #include "engine/simulation.hpp"
+#include "systems/carving.hpp"
 
 #include <nlohmann/json.hpp>
 
 #include <unistd.h>
 
 #include <algorithm>
+#include <climits>
 #include <cerrno>
 #include <charconv>
 #include <cstdarg>
@@ -423,6 +425,188 @@ void write_obj(const Simulation& sim, const std::string& path) {
   for (const Tri& t : sheet.tris.tri)
     appendf(s, "f %d/%d %d/%d %d/%d\n", t[0] + 1, t[0] + 1, t[1] + 1, t[1] + 1, t[2] + 1, t[2] + 1);
   write_file_atomically(path, s);
+}
+
+TexturedObjWriter::TexturedObjWriter(std::string dir, PatternStyle style) : dir_(std::move(dir)), style_(style) {}
+
+void TexturedObjWriter::write(const Simulation& sim, const std::string& stem) {
+  namespace fs = std::filesystem;
+  const Sheet& sheet = sim.sheet();
+  const DetailParams& dp = sim.detail_params();
+  const fs::path dir(dir_);
+  if (dp.width <= 0 || dp.height <= 0 || !(dp.pixel_size > 0)) {  // no texture: the plain mesh
+    write_obj(sim, (dir / (stem + ".obj")).string());
+    return;
+  }
+  const std::vector<Vec2>& outline = sim.scenario().outline;
+  if (!paper_written_) {
+    std::vector<uint8_t> rgba;
+    render_carved_texture_rgba(outline, sim.carve_state(), dp, sim.fiber(), 0, style_, rgba);
+    write_rgba_png((dir / "paper.png").string(), dp.width, dp.height, rgba);
+    paper_written_ = true;
+  }
+
+  // Side labels of the triangles along the tears, and their support strips: lip edges (boundary edges of a
+  // labelled triangle whose two ends lie on a tear's lip) pushed outwards in the pattern by the strip width,
+  // carried to 3D by the triangle's deformation gradient F = [x1 − x0, x2 − x0] · rest_inv.
+  const int32_t nv = sheet.verts.size(), nt = sheet.tris.size();
+  std::vector<int32_t> side;
+  assign_triangle_sides(sheet.verts.rest, sheet.verts.tear, sheet.tris.tri, sheet.tears, side);
+  struct Strip {
+    int32_t label, a, b;
+    Vec2 ra, rb;  // outer corners, pattern
+    Vec3 xa, xb;  // outer corners, 3D
+  };
+  std::vector<Strip> strips;
+  const double w = support_strip_width(dp);
+  {
+    std::vector<std::pair<uint64_t, int32_t>> edges;  // (edge key, triangle * 3 + corner)
+    edges.reserve(static_cast<size_t>(nt) * 3);
+    for (int32_t t = 0; t < nt; ++t)
+      for (int k = 0; k < 3; ++k) {
+        const int32_t a = sheet.tris.tri[t][k], b = sheet.tris.tri[t][(k + 1) % 3];
+        edges.push_back({(uint64_t(uint32_t(std::min(a, b))) << 32) | uint32_t(std::max(a, b)), t * 3 + k});
+      }
+    std::sort(edges.begin(), edges.end());
+    for (size_t i = 0; i < edges.size();) {
+      size_t j = i;
+      while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+      const int32_t t = edges[i].second / 3, k = edges[i].second % 3;
+      if (j - i == 1 && side[static_cast<size_t>(t)] > 0) {
+        const Tri& tri = sheet.tris.tri[t];
+        const int32_t a = tri[k], b = tri[(k + 1) % 3];
+        const int32_t tear = label_tear(side[static_cast<size_t>(t)]);
+        if (sheet.verts.tear[a] == tear && sheet.verts.tear[b] == tear) {
+          const Vec2 &ra = sheet.verts.rest[a], &rb = sheet.verts.rest[b];
+          const Vec2 e = rb - ra;
+          const double len = e.norm();
+          if (len > 0) {
+            const Vec2 out = Vec2(e.y(), -e.x()) / len * w;  // right of a→b: outside a counter-clockwise triangle
+            Eigen::Matrix<double, 3, 2> X;
+            X.col(0) = sheet.verts.x[tri[1]] - sheet.verts.x[tri[0]];
+            X.col(1) = sheet.verts.x[tri[2]] - sheet.verts.x[tri[0]];
+            Vec3 off = X * sheet.tris.rest_inv[t] * out;
+            if (!off.allFinite()) off = Vec3::Zero();
+            strips.push_back({side[static_cast<size_t>(t)], a, b, ra + out, rb + out, sheet.verts.x[a] + off,
+                              sheet.verts.x[b] + off});
+          }
+        }
+      }
+      i = j;
+    }
+  }
+
+  // Atlas windows: per label, the pixel box of its triangles and strips, one pixel of margin, snapped to
+  // label tiles (so small changes of the lip keep the layout and the PNG), clipped to the texture.
+  std::vector<int32_t> labels;
+  for (int32_t t = 0; t < nt; ++t)
+    if (side[static_cast<size_t>(t)] > 0) labels.push_back(side[static_cast<size_t>(t)]);
+  std::sort(labels.begin(), labels.end());
+  labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+  std::vector<Box> boxes(labels.size());
+  auto box_of = [&](int32_t label) -> Box& {
+    return boxes[static_cast<size_t>(std::lower_bound(labels.begin(), labels.end(), label) - labels.begin())];
+  };
+  for (int32_t t = 0; t < nt; ++t)
+    if (side[static_cast<size_t>(t)] > 0)
+      for (int32_t v : sheet.tris.tri[t]) box_of(side[static_cast<size_t>(t)]).add(sheet.verts.rest[v]);
+  for (const Strip& s : strips) {
+    box_of(s.label).add(s.ra);
+    box_of(s.label).add(s.rb);
+  }
+  std::vector<std::pair<int32_t, PixelRect>> windows;
+  for (size_t k = 0; k < labels.size(); ++k) {
+    if (!boxes[k].valid()) continue;
+    const Vec2 lo = (boxes[k].lo - dp.origin) / dp.pixel_size, hi = (boxes[k].hi - dp.origin) / dp.pixel_size;
+    auto snap_down = [](double v) { return static_cast<int32_t>(std::floor((v - 1) / kTileSize)) * kTileSize; };
+    auto snap_up = [](double v) { return static_cast<int32_t>(std::ceil((v + 1) / kTileSize)) * kTileSize; };
+    const int32_t x0 = std::clamp(snap_down(lo.x()), 0, dp.width), y0 = std::clamp(snap_down(lo.y()), 0, dp.height);
+    const int32_t x1 = std::clamp(snap_up(hi.x()), 0, dp.width), y1 = std::clamp(snap_up(hi.y()), 0, dp.height);
+    if (x1 > x0 && y1 > y0) windows.push_back({labels[k], PixelRect{x0, y0, x1 - x0, y1 - y0}});
+  }
+  const CarvedAtlas atlas = pack_carved_atlas(windows);
+  const int64_t segments = sim.carve_state().carved_segments;
+  if (!atlas.patches.empty() && (carved_name_.empty() || !(atlas == atlas_) || segments != atlas_segments_)) {
+    char name[40];
+    std::snprintf(name, sizeof name, "carved_%04d.png", sim.frame());
+    std::vector<uint8_t> rgba;
+    render_carved_atlas(atlas, outline, sheet.tears, sim.carve_state(), dp, sim.fiber(), style_, rgba);
+    write_rgba_png((dir / name).string(), atlas.width, atlas.height, rgba);
+    carved_name_ = name;
+    atlas_ = atlas;
+    atlas_segments_ = segments;
+    ++carved_written_;
+  }
+
+  // MTL: both materials, diffuse and alpha from the same RGBA image.
+  std::string mtl = "# papertear " + sim.scenario().name + " frame " + std::to_string(sim.frame()) + "\n";
+  auto material = [&](const char* name, const std::string& png) {
+    mtl += std::string("newmtl ") + name + "\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nd 1\nillum 1\n";
+    mtl += "map_Kd " + png + "\nmap_d " + png + "\n";
+  };
+  material("paper", "paper.png");
+  const bool carved = !atlas.patches.empty();
+  if (carved) material("carved", carved_name_);
+  write_file_atomically((dir / (stem + ".mtl")).string(), mtl);
+
+  // OBJ: mesh vertices then strip corners; texture coordinates per (vertex, material patch).
+  const Vec2 tex_size = dp.pixel_size * Vec2(dp.width, dp.height);
+  std::string s;
+  s.reserve(256 + static_cast<size_t>(nv) * 64 + static_cast<size_t>(nt) * 48 + strips.size() * 200);
+  s += "# papertear " + sim.scenario().name + " frame " + std::to_string(sim.frame()) + "\n";
+  appendf(s, "# %d mesh vertices (vt 1..%d: their paper coordinates), %d support-strip corners\n", nv, nv,
+          static_cast<int32_t>(2 * strips.size()));
+  s += "mtllib " + stem + ".mtl\no sheet\n";
+  for (const Vec3& x : sheet.verts.x)
+    appendf(s, "v %.9g %.9g %.9g\n", finite_or_zero(x.x()), finite_or_zero(x.y()), finite_or_zero(x.z()));
+  for (const Strip& st : strips)
+    for (const Vec3* x : {&st.xa, &st.xb})
+      appendf(s, "v %.9g %.9g %.9g\n", finite_or_zero(x->x()), finite_or_zero(x->y()), finite_or_zero(x->z()));
+  int32_t vt_count = 0;
+  std::vector<std::pair<uint64_t, int32_t>> vt_index;  // (label << 32 | vertex) → vt, sorted on demand
+  std::string vts, faces_paper, faces_carved;
+  auto add_vt = [&](const Vec2& uv) {
+    appendf(vts, "vt %.9g %.9g\n", finite_or_zero(uv.x()), finite_or_zero(uv.y()));
+    return ++vt_count;
+  };
+  // Paper coordinates of every mesh vertex first (vt i = vertex i, as write_obj).
+  for (const Vec2& r : sheet.verts.rest) add_vt(Vec2((r.x() - dp.origin.x()) / tex_size.x(), (r.y() - dp.origin.y()) / tex_size.y()));
+  auto carved_vt = [&](int32_t label, int32_t v, const Vec2& r) {
+    const uint64_t key = (uint64_t(uint32_t(label)) << 32) | uint32_t(v);
+    auto it = std::lower_bound(vt_index.begin(), vt_index.end(), std::make_pair(key, INT32_MIN));
+    if (it != vt_index.end() && it->first == key) return it->second;
+    const int32_t id = add_vt(atlas.uv(dp, *atlas.find(label), r));
+    vt_index.insert(it, {key, id});
+    return id;
+  };
+  for (int32_t t = 0; t < nt; ++t) {
+    const Tri& tri = sheet.tris.tri[t];
+    const int32_t label = side[static_cast<size_t>(t)];
+    if (label > 0 && atlas.find(label)) {
+      int32_t vt[3];
+      for (int k = 0; k < 3; ++k) vt[k] = carved_vt(label, tri[k], sheet.verts.rest[tri[k]]);
+      appendf(faces_carved, "f %d/%d %d/%d %d/%d\n", tri[0] + 1, vt[0], tri[1] + 1, vt[1], tri[2] + 1, vt[2]);
+    } else {
+      appendf(faces_paper, "f %d/%d %d/%d %d/%d\n", tri[0] + 1, tri[0] + 1, tri[1] + 1, tri[1] + 1, tri[2] + 1,
+              tri[2] + 1);
+    }
+  }
+  for (size_t k = 0; k < strips.size(); ++k) {
+    const Strip& st = strips[k];
+    const AtlasPatch* patch = atlas.find(st.label);
+    if (!patch) continue;
+    const int32_t a = st.a + 1, b = st.b + 1;
+    const int32_t oa = nv + 2 * static_cast<int32_t>(k) + 1, ob = oa + 1;
+    const int32_t ta = carved_vt(st.label, st.a, sheet.verts.rest[st.a]);
+    const int32_t tb = carved_vt(st.label, st.b, sheet.verts.rest[st.b]);
+    const int32_t toa = add_vt(atlas.uv(dp, *patch, st.ra)), tob = add_vt(atlas.uv(dp, *patch, st.rb));
+    // a → b runs counter-clockwise around its triangle; the strip (b, a, oa, ob) keeps that orientation.
+    appendf(faces_carved, "f %d/%d %d/%d %d/%d\nf %d/%d %d/%d %d/%d\n", b, tb, a, ta, oa, toa, b, tb, oa, toa, ob, tob);
+  }
+  s += vts;
+  s += "usemtl paper\n" + faces_paper;
+  if (carved && !faces_carved.empty()) s += "usemtl carved\n" + faces_carved;
+  write_file_atomically((dir / (stem + ".obj")).string(), s);
 }
 
 }  // namespace pt

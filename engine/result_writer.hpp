@@ -3,8 +3,11 @@
 // partial file that looks like a result.
 #pragma once
 
+#include "engine/texture_export.hpp"
+
 #include <nlohmann/json_fwd.hpp>
 
+#include <cstdint>
 #include <string>
 
 namespace pt {
@@ -28,6 +31,31 @@ void write_svg(const Simulation& sim, const std::string& path);
 // The mesh now: v = 3D positions, vt = pattern positions normalised to the texture's extent (the
 // outline's bounding box, DESIGN §5.6), f = triangles. Throws std::runtime_error on I/O failure.
 void write_obj(const Simulation& sim, const std::string& path);
+
+// Textured OBJ sequence (`run --obj`, DESIGN §7, paper §6.2): per frame <stem>.obj + <stem>.mtl in `dir`.
+// Two materials: "paper" (paper.png, the whole texture, written once: triangles away from the tears) and
+// "carved" (carved_<frame>.png, the atlas of texture_export.hpp: one patch per tear side present, alpha 0
+// beyond the detailed path for that side). Triangles along a tear get support strips (§6.2, Fig. 11): a
+// quad of support_strip_width beyond each lip edge, in the triangle's plane, textured from the same patch,
+// so the detail beyond the coarse edge shows. The atlas PNG is rewritten only when the carving or the
+// atlas layout (the lip triangles) changed; frames in between reference the last one. Call
+// Simulation::flush() before write() so the last frame's segments are carved. Throws std::runtime_error.
+class TexturedObjWriter {
+ public:
+  explicit TexturedObjWriter(std::string dir, PatternStyle style = {});
+  void write(const Simulation& sim, const std::string& stem);
+  int32_t carved_textures_written() const { return carved_written_; }
+  const std::string& carved_texture() const { return carved_name_; }  // current atlas file, "" if none
+
+ private:
+  std::string dir_;
+  PatternStyle style_;
+  bool paper_written_ = false;
+  CarvedAtlas atlas_;
+  int64_t atlas_segments_ = -1;
+  std::string carved_name_;
+  int32_t carved_written_ = 0;
+};
 
 // Writes `content` to `path` through a temporary file in the same directory and a rename.
 void write_file_atomically(const std::string& path, const std::string& content);

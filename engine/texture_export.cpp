@@ -195,4 +195,120 @@ void write_carved_texture_png(const std::string& path, const std::vector<Vec2>& 
   write_rgba_png(path, params.width, params.height, rgba);
 }
 
+void read_rgba_png(const std::string& path, int32_t& width, int32_t& height, std::vector<uint8_t>& rgba) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&image, path.c_str()))
+    throw std::runtime_error(path + ": " + image.message);
+  image.format = PNG_FORMAT_RGBA;
+  rgba.assign(PNG_IMAGE_SIZE(image), 0);
+  if (!png_image_finish_read(&image, nullptr, rgba.data(), 0, nullptr)) {
+    const std::string message = image.message;
+    png_image_free(&image);
+    throw std::runtime_error(path + ": " + message);
+  }
+  width = static_cast<int32_t>(image.width);
+  height = static_cast<int32_t>(image.height);
+}
+
+const AtlasPatch* CarvedAtlas::find(int32_t label) const {
+  for (const AtlasPatch& p : patches)
+    if (p.label == label) return &p;
+  return nullptr;
+}
+
+Vec2 CarvedAtlas::uv(const DetailParams& params, const AtlasPatch& patch, const Vec2& p) const {
+  const Vec2 q = (p - params.origin) / params.pixel_size;  // texture pixels, y up
+  const double ax = patch.x + (q.x() - patch.rect.x);
+  const double ay = patch.y + (patch.rect.y + patch.rect.height - q.y());  // atlas rows, down
+  return {ax / std::max(1, width), 1.0 - ay / std::max(1, height)};
+}
+
+bool CarvedAtlas::operator==(const CarvedAtlas& o) const {
+  if (width != o.width || height != o.height || patches.size() != o.patches.size()) return false;
+  for (size_t k = 0; k < patches.size(); ++k) {
+    const AtlasPatch &a = patches[k], &b = o.patches[k];
+    if (a.label != b.label || a.x != b.x || a.y != b.y || a.rect.x != b.rect.x || a.rect.y != b.rect.y ||
+        a.rect.width != b.rect.width || a.rect.height != b.rect.height)
+      return false;
+  }
+  return true;
+}
+
+CarvedAtlas pack_carved_atlas(const std::vector<std::pair<int32_t, PixelRect>>& windows, int32_t max_width) {
+  CarvedAtlas atlas;
+  int32_t limit = max_width;
+  for (const auto& [label, r] : windows) limit = std::max(limit, r.width);
+  int32_t x = 0, y = 0, shelf = 0;
+  for (const auto& [label, r] : windows) {
+    if (r.width <= 0 || r.height <= 0) continue;
+    if (x > 0 && x + r.width > limit) {  // next shelf
+      y += shelf;
+      x = 0;
+      shelf = 0;
+    }
+    atlas.patches.push_back({label, r, x, y});
+    x += r.width;
+    shelf = std::max(shelf, r.height);
+    atlas.width = std::max(atlas.width, x);
+  }
+  atlas.height = y + shelf;
+  return atlas;
+}
+
+bool side_pixel_visible(const std::vector<Tear>& tears, const CarveState& state, const DetailParams& params,
+                        int32_t label, int32_t i, int32_t j, double reach) {
+  if (label <= 0) return true;
+  const int32_t tear = label_tear(label);
+  const uint16_t l = label_at(state, i, j);
+  if (l == kPathLabel) return true;
+  if (l != kPaperLabel) return label_tear(l) != tear || l == label;
+  if (tear < 0 || tear >= static_cast<int32_t>(tears.size())) return true;
+  // Unlabelled: across the coarse path (projecting inside one of its segments, within reach)?
+  const Tear& t = tears[static_cast<size_t>(tear)];
+  const Vec2 c = pixel_centre(params, i, j);
+  double best = reach * reach;
+  int64_t found = -1;
+  for (size_t s = 0; s + 1 < t.tips.size(); ++s) {
+    const Vec2 ab = t.tips[s + 1] - t.tips[s];
+    const double len2 = ab.squaredNorm();
+    if (len2 <= 0) continue;
+    const double u = (c - t.tips[s]).dot(ab) / len2;
+    if (u < 0 || u > 1) continue;
+    const double d2 = (c - (t.tips[s] + u * ab)).squaredNorm();
+    if (d2 < best) {
+      best = d2;
+      found = static_cast<int64_t>(s);
+    }
+  }
+  if (found < 0) return true;
+  const Vec2 ab = t.tips[found + 1] - t.tips[found], ac = c - t.tips[found];
+  return side_label(tear, ab.x() * ac.y() - ab.y() * ac.x() > 0) == label;
+}
+
+void render_carved_atlas(const CarvedAtlas& atlas, const std::vector<Vec2>& outline, const std::vector<Tear>& tears,
+                         const CarveState& state, const DetailParams& params, const FiberField& fiber,
+                         const PatternStyle& style, std::vector<uint8_t>& rgba) {
+  rgba.assign(static_cast<size_t>(atlas.width) * static_cast<size_t>(atlas.height) * 4, 0);
+  const double reach = 2.0 * support_strip_width(params) + 2.0 * params.pixel_size;
+  std::vector<uint8_t> patch;
+  for (const AtlasPatch& p : atlas.patches) {
+    const PixelRect r = clip(p.rect, params);
+    if (r.width != p.rect.width || r.height != p.rect.height) throw std::runtime_error("atlas patch outside the texture");
+    render_paper(outline, params, fiber, r, style, {0, 0, 0, 0}, patch);
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, r.height, 16), [&](const tbb::blocked_range<int32_t>& rows) {
+      for (int32_t row = rows.begin(); row < rows.end(); ++row) {
+        const int32_t j = r.y + r.height - 1 - row;
+        const uint8_t* src = patch.data() + static_cast<size_t>(row) * static_cast<size_t>(r.width) * 4;
+        uint8_t* dst = rgba.data() + (static_cast<size_t>(p.y + row) * static_cast<size_t>(atlas.width) +
+                                      static_cast<size_t>(p.x)) * 4;
+        std::copy(src, src + static_cast<size_t>(r.width) * 4, dst);
+        for (int32_t c = 0; c < r.width; ++c)
+          if (dst[4 * c + 3] != 0 && !side_pixel_visible(tears, state, params, p.label, r.x + c, j, reach))
+            dst[4 * c + 3] = 0;
+      }
+    });
+  }
+}
+
 }  // namespace pt

@@ -57,4 +57,53 @@ void write_carved_texture_png(const std::string& path, const std::vector<Vec2>& 
                               const DetailParams& params, const FiberField& fiber, int32_t side,
                               const PatternStyle& style = {});
 
+// Read an 8-bit PNG (any colour type libpng can expand) as RGBA8, row 0 = top. Throws std::runtime_error.
+void read_rgba_png(const std::string& path, int32_t& width, int32_t& height, std::vector<uint8_t>& rgba);
+
+// --- Carved atlas for textured OBJ export (`--obj`) ------------------------------------------------------
+//
+// Choice: the untouched paper is ONE full texture (paper.png, written once per run; every triangle not
+// along a tear maps into it), and every tear side present gets a PATCH of one shared carved atlas: the
+// window of the texture covering that side's lip triangles and their support strips, with alpha 0 on the
+// pixels beyond the detailed path for that side. Why not the alternatives:
+//   - one full-size RGBA texture per side label (the paper's T_left/T_right): 2 × W × H × 4 bytes per tear
+//     (A4 at 0.1 mm: 25 MB per tear) and one large PNG rewrite per side whenever a segment is carved;
+//   - one single texture with uv = pattern position: a pixel beyond the coarse edge must be opaque for
+//     the support strip of one lip and transparent for the other lip's triangle that covers the same
+//     pattern point, which one texel cannot be; without strips the detail beyond the coarse edge is lost
+//     and a gap opens at rest wherever the detailed path leaves the coarse one.
+// The atlas therefore grows with the tears' neighbourhood (like the label map), and it is rewritten only
+// when carving or the lip triangles changed.
+struct AtlasPatch {
+  int32_t label = 0;   // side label (≥ 1)
+  PixelRect rect;      // window of the texture (pixels, y up)
+  int32_t x = 0, y = 0;  // top-left corner of the patch in the atlas image (y down)
+};
+
+struct CarvedAtlas {
+  int32_t width = 0, height = 0;
+  std::vector<AtlasPatch> patches;  // ascending label
+  const AtlasPatch* find(int32_t label) const;
+  // Texture coordinate (OBJ convention: v up from the image's bottom row) of pattern point p in the patch.
+  Vec2 uv(const DetailParams& params, const AtlasPatch& patch, const Vec2& p) const;
+  bool operator==(const CarvedAtlas& o) const;
+};
+
+// Shelf-packs the windows (label, rect) in the given order into an atlas no wider than the widest window
+// or `max_width`, whichever is larger. Deterministic.
+CarvedAtlas pack_carved_atlas(const std::vector<std::pair<int32_t, PixelRect>>& windows, int32_t max_width = 4096);
+
+// Whether a pixel shows on the triangles and support strips of side `label`: the side-label rule of
+// pixel_visible, plus, for unlabelled pixels (past the carved band, e.g. a segment not carved yet), hidden
+// when they lie across that side's coarse path within `reach` meters of it (a strip must not draw paper
+// over the other lip).
+bool side_pixel_visible(const std::vector<Tear>& tears, const CarveState& state, const DetailParams& params,
+                        int32_t label, int32_t i, int32_t j, double reach);
+
+// The atlas image (width × height RGBA8, row 0 = top): paper × fibres in each patch, alpha 0 outside the
+// outline, beyond the detailed path of the patch's side, and between patches. Cost O(atlas pixels).
+void render_carved_atlas(const CarvedAtlas& atlas, const std::vector<Vec2>& outline, const std::vector<Tear>& tears,
+                         const CarveState& state, const DetailParams& params, const FiberField& fiber,
+                         const PatternStyle& style, std::vector<uint8_t>& rgba);
+
 }  // namespace pt

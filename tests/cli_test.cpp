@@ -1,12 +1,17 @@
 // The papertear command line as a user meets it (DESIGN §7): exit status 2 with exactly one line on
 // stderr and nothing written for every bad input; exit 0, a complete result.json and an SVG for a good
 // one; usage errors are exit 2 too.
+#include "engine/texture_export.hpp"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <cmath>
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -286,6 +291,129 @@ TEST_F(Cli, BatchWritesBatchJson) {
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["sheets"], 3);
   EXPECT_EQ(j["hashes"].size(), 3u);
+}
+
+// Textured OBJ (issue 5): a tearing run writes per frame OBJ + MTL, paper.png and the carved atlas; the
+// MTL names the PNGs with map_Kd and map_d; rasterising the carved faces on the CPU (pattern position of
+// each covered atlas pixel by barycentric interpolation) finds transparent pixels only near the detailed
+// tear and opaque paper away from it.
+TEST_F(Cli, TexturedObjShowsTheCarvedEdge) {
+  const std::string scenario = std::string(PT_SOURCE_DIR) + "/scenarios/start-inward.json";
+  const Result r = run({"run", scenario, "--out", "o", "--obj", "--frames", "40"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const fs::path frames = dir_ / "o" / "frames";
+  const fs::path obj_path = frames / "frame_0040.obj", mtl_path = frames / "frame_0040.mtl";
+  ASSERT_TRUE(fs::exists(obj_path));
+  ASSERT_TRUE(fs::exists(mtl_path));
+  ASSERT_TRUE(fs::exists(frames / "paper.png"));
+  const std::string obj = read_file(obj_path), mtl = read_file(mtl_path);
+  EXPECT_NE(obj.find("mtllib frame_0040.mtl\n"), std::string::npos);
+  EXPECT_NE(mtl.find("map_Kd paper.png\n"), std::string::npos);
+  EXPECT_NE(mtl.find("map_d paper.png\n"), std::string::npos);
+  const size_t kd = mtl.find("map_Kd carved_");
+  ASSERT_NE(kd, std::string::npos) << "no carved material after a tearing run:\n" << mtl;
+  const std::string carved = mtl.substr(kd + 7, mtl.find('\n', kd) - kd - 7);
+  EXPECT_NE(mtl.find("map_d " + carved + "\n"), std::string::npos) << mtl;
+  ASSERT_TRUE(fs::exists(frames / carved)) << carved;
+  // Fewer carved textures than frames: rewritten only when the carving changed.
+  int32_t atlases = 0;
+  for (const auto& e : fs::directory_iterator(frames)) atlases += e.path().filename().string().rfind("carved_", 0) == 0;
+  EXPECT_GE(atlases, 1);
+  EXPECT_LT(atlases, 40);
+
+  // The tear's detailed path (pattern meters) and the texture frame (the outline's box, 0.1 mm pixels).
+  const nlohmann::json res = nlohmann::json::parse(read_file(dir_ / "o" / "result.json"));
+  std::vector<std::array<double, 2>> detail;
+  for (const auto& t : res["tears"])
+    for (const auto& q : t["detail"]) detail.push_back({q[0].get<double>(), q[1].get<double>()});
+  ASSERT_GE(detail.size(), 10u) << "start-inward did not tear in 40 frames";
+  int32_t pw = 0, ph = 0, aw = 0, ah = 0;
+  std::vector<uint8_t> paper, atlas;
+  pt::read_rgba_png((frames / "paper.png").string(), pw, ph, paper);
+  pt::read_rgba_png((frames / carved).string(), aw, ah, atlas);
+  const double px = 1e-4;  // texture pixel, m (DESIGN §5.6 default; the outline's box starts at 0)
+  EXPECT_NEAR(pw * px, 0.148, 2 * px);
+  EXPECT_NEAR(ph * px, 0.21, 2 * px);
+
+  // Parse the OBJ: mesh vertex count, vt, carved faces.
+  std::istringstream in(obj);
+  std::string line, material;
+  int32_t nv = -1;
+  std::vector<std::array<double, 2>> vt;
+  std::vector<std::array<std::array<int32_t, 2>, 3>> faces;
+  while (std::getline(in, line)) {
+    if (line.find(" mesh vertices ") != std::string::npos && line[0] == '#') nv = std::atoi(line.c_str() + 2);
+    else if (line.rfind("vt ", 0) == 0) {
+      double u = 0, v = 0;
+      std::sscanf(line.c_str(), "vt %lf %lf", &u, &v);
+      vt.push_back({u, v});
+    } else if (line.rfind("usemtl ", 0) == 0) material = line.substr(7);
+    else if (line.rfind("f ", 0) == 0 && material == "carved") {
+      std::array<std::array<int32_t, 2>, 3> f{};
+      ASSERT_EQ(std::sscanf(line.c_str(), "f %d/%d %d/%d %d/%d", &f[0][0], &f[0][1], &f[1][0], &f[1][1], &f[2][0],
+                            &f[2][1]), 6) << line;
+      faces.push_back(f);
+    }
+  }
+  ASSERT_GT(nv, 0);
+  ASSERT_FALSE(faces.empty());
+  auto dist_to_tear = [&](double x, double y) {
+    double best = 1e9;
+    for (const auto& q : detail) best = std::min(best, std::hypot(q[0] - x, q[1] - y));
+    return best;
+  };
+  int64_t transparent = 0, opaque_far = 0, transparent_far = 0, covered = 0;
+  double worst = 0;
+  // Atlas patches are windows of the texture at the same pixel size: atlas pixel → pattern is a translation,
+  // fixed by any corner that is a mesh vertex (its paper vt). Support-strip faces (two mesh corners, two
+  // strip corners) are rasterised too: they carry the detail beyond the coarse edge.
+  auto alpha_at = [&](const std::vector<uint8_t>& img, int w, int h, int x, int y) {
+    return img[(static_cast<size_t>(std::clamp(y, 0, h - 1)) * w + std::clamp(x, 0, w - 1)) * 4 + 3];
+  };
+  for (const auto& f : faces) {
+    int anchor = -1;
+    for (int k = 0; k < 3 && anchor < 0; ++k)
+      if (f[k][0] <= nv) anchor = k;
+    ASSERT_GE(anchor, 0);
+    std::array<std::array<double, 2>, 3> uv{};
+    for (int k = 0; k < 3; ++k) uv[k] = {vt[f[k][1] - 1][0] * aw, (1.0 - vt[f[k][1] - 1][1]) * ah};  // atlas px, y down
+    const auto& pv = vt[f[anchor][0] - 1];  // paper vt of the anchor vertex
+    const double tx = pv[0] * pw * px - uv[anchor][0] * px, ty = pv[1] * ph * px + uv[anchor][1] * px;
+    const double det = (uv[1][0] - uv[0][0]) * (uv[2][1] - uv[0][1]) - (uv[2][0] - uv[0][0]) * (uv[1][1] - uv[0][1]);
+    if (std::abs(det) < 1e-9) continue;
+    const int x0 = std::max(0, int(std::floor(std::min({uv[0][0], uv[1][0], uv[2][0]}))));
+    const int x1 = std::min(aw - 1, int(std::ceil(std::max({uv[0][0], uv[1][0], uv[2][0]}))));
+    const int y0 = std::max(0, int(std::floor(std::min({uv[0][1], uv[1][1], uv[2][1]}))));
+    const int y1 = std::min(ah - 1, int(std::ceil(std::max({uv[0][1], uv[1][1], uv[2][1]}))));
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        const double cx = x + 0.5, cy = y + 0.5;
+        const double b1 = ((cx - uv[0][0]) * (uv[2][1] - uv[0][1]) - (uv[2][0] - uv[0][0]) * (cy - uv[0][1])) / det;
+        const double b2 = ((uv[1][0] - uv[0][0]) * (cy - uv[0][1]) - (cx - uv[0][0]) * (uv[1][1] - uv[0][1])) / det;
+        if (1 - b1 - b2 < 0 || b1 < 0 || b2 < 0) continue;  // pixel centre inside the face
+        const double X = tx + cx * px, Y = ty - cy * px;
+        // Outside the outline (paper.png transparent there too): not the carving's doing.
+        if (alpha_at(paper, pw, ph, int(X / px), ph - 1 - int(Y / px)) == 0) continue;
+        const double d = dist_to_tear(X, Y);
+        const uint8_t a = atlas[(static_cast<size_t>(y) * aw + x) * 4 + 3];
+        ++covered;
+        if (a == 0) {
+          ++transparent;
+          worst = std::max(worst, d);
+          transparent_far += d > 3e-3;
+        } else if (d > 3e-3) {
+          ++opaque_far;
+        }
+      }
+  }
+  EXPECT_GT(covered, 1000);
+  EXPECT_GT(transparent, 200) << "too few pixels beyond the detailed path are transparent";
+  EXPECT_EQ(transparent_far, 0) << "transparent pixels up to " << worst * 1e3 << " mm from the tear";
+  EXPECT_GT(opaque_far, 1000) << "no opaque paper away from the tear";
+  // And the untouched paper texture is opaque at the middle of the tear (carving lives in the atlas).
+  const auto& mid = detail[detail.size() / 2];
+  const int mx = int(mid[0] / px), my = ph - 1 - int(mid[1] / px);
+  EXPECT_EQ(paper[(static_cast<size_t>(my) * pw + mx) * 4 + 3], 255);
 }
 
 }  // namespace
