@@ -1,0 +1,111 @@
+// One benchmark per geometric / tearing system (issues 4 and 6), at 100, 1 000 and 10 000 triangles:
+// regions, candidates, clustering + propagation at a tip, remeshing (one cut). The sheet is an A4 with a
+// notch, bent into a wave so the regions are not trivial, with a tear already cut from the notch.
+#include "bench_scenes.hpp"
+
+#include "engine/sheet_builder.hpp"
+#include "systems/candidates.hpp"
+#include "systems/clustering.hpp"
+#include "systems/membrane_forces.hpp"
+#include "systems/propagation.hpp"
+#include "systems/regions.hpp"
+#include "systems/remeshing.hpp"
+#include "systems/topology.hpp"
+
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+
+using namespace pt;
+
+namespace {
+
+struct BentSheet {
+  Sheet sheet;
+  FiberField fiber;
+  int32_t tip = -1;
+};
+
+BentSheet bent_sheet(int32_t triangles) {
+  const Scenario s = bench::a4_scene(triangles);
+  BentSheet b;
+  b.sheet = build_sheet(s);
+  b.fiber = make_fiber_field(s);
+  Sheet& sh = b.sheet;
+  for (int32_t i = 0; i < sh.verts.size(); ++i) {
+    const Vec2 r = sh.verts.rest[i];
+    sh.verts.x[i] = Vec3(r.x(), r.y(), 0.02 * std::sin(30 * r.x()) * (0.3 - r.y()));
+  }
+  // A tear from the notch apex (0.105, 0.28) 2 cm down.
+  int32_t apex = 0;
+  for (int32_t i = 0; i < sh.verts.size(); ++i)
+    if ((sh.verts.rest[i] - Vec2(0.105, 0.28)).norm() < 1e-9) apex = i;
+  const CutResult cut = cut_tear_segment(apex, Vec2(0.105, 0.26), Vec2::Zero(), 0, RemeshParams{}, sh);
+  Tear t;
+  t.id = 0;
+  t.tips = {Vec2(0.105, 0.28), cut.end};
+  sh.tears.push_back(t);
+  sh.tips.push_back(Tip{cut.tip_vertex, 0, Vec2(0, -1)});
+  b.tip = cut.tip_vertex;
+  compute_membrane_forces(sh.verts.x, sh.tris.tri, sh.tris.rest_inv, sh.tris.rest_area, membrane_params(sh.material), 0,
+                          sh.tris.size(), sh.tris.corner_force);
+  return b;
+}
+
+void BM_Regions(benchmark::State& state) {
+  BentSheet b = bent_sheet(static_cast<int32_t>(state.range(0)));
+  Sheet& s = b.sheet;
+  for (auto _ : state) {
+    const RegionSummary r =
+        classify_regions(s.verts.x, s.tris.tri, s.topo, RegionParams{}, s.tris.region, s.regions, s.verts.flags);
+    benchmark::DoNotOptimize(r);
+  }
+  state.counters["triangles"] = s.tris.size();
+  state.counters["triangles_per_s"] =
+      benchmark::Counter(static_cast<double>(s.tris.size()) * state.iterations(), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_Regions)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+void BM_Candidates(benchmark::State& state) {
+  BentSheet b = bent_sheet(static_cast<int32_t>(state.range(0)));
+  Sheet& s = b.sheet;
+  classify_regions(s.verts.x, s.tris.tri, s.topo, RegionParams{}, s.tris.region, s.regions, s.verts.flags);
+  std::vector<Candidate> out;
+  for (auto _ : state) {
+    find_candidates(s.verts, s.tips, s.fingers, s.tears, s.material, b.fiber, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.counters["candidates"] = static_cast<double>(out.size());
+}
+BENCHMARK(BM_Candidates)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+// Clustering (eq. 4–5) and the decision (eq. 6) at the tear tip: cost independent of the sheet size.
+void BM_ClusterAndPropagate(benchmark::State& state) {
+  BentSheet b = bent_sheet(static_cast<int32_t>(state.range(0)));
+  const Sheet& s = b.sheet;
+  PropagationParams pp;
+  for (auto _ : state) {
+    ForceClusters c;
+    cluster_tip_forces(s.verts, s.tris, s.topo, b.tip, ClusterParams{}, c);
+    const PropagationDecision d = decide_propagation(c, s.topo, s.verts.rest, b.tip, 1.0, pp);
+    benchmark::DoNotOptimize(d);
+  }
+}
+BENCHMARK(BM_ClusterAndPropagate)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+// One 5 mm cut from the tip, on a fresh copy each time (the copy is not timed). Includes the O(n)
+// topology refresh at its end.
+void BM_RemeshOneCut(benchmark::State& state) {
+  BentSheet b = bent_sheet(static_cast<int32_t>(state.range(0)));
+  const Vec2 from = b.sheet.verts.rest[b.tip];
+  for (auto _ : state) {
+    state.PauseTiming();
+    Sheet copy = b.sheet;
+    state.ResumeTiming();
+    const CutResult r = cut_tear_segment(b.tip, from + Vec2(0.001, -0.005), Vec2(0, -1), 0, RemeshParams{}, copy);
+    benchmark::DoNotOptimize(r);
+  }
+}
+BENCHMARK(BM_RemeshOneCut)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
