@@ -17,7 +17,11 @@ common=(-G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPAPERTEAR_BUILD_BENCH=OFF -
         -DPAPERTEAR_BUILD_APPS=ON)
 
 run_asan() {
-  local flags="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
+  # -fno-sanitize=vptr: oneTBB 2021.8's graph_task::destruct_and_deallocate (flow graph, every frame) runs
+  # ~graph_task() and then static_casts `this` to the derived task type; the vptr check reports the destroyed
+  # object ("downcast ... invalid vptr", _flow_graph_impl.h:368) and, unrecoverable, aborts every test that
+  # steps a Simulation. It is TBB header code, not ours; UBSan suppressions do not apply to aborting checks.
+  local flags="-fsanitize=address,undefined -fno-sanitize=vptr -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
   test -f "$asan_dir/build.ninja" || cmake -S . -B "$asan_dir" "${common[@]}" \
     -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_C_FLAGS="$flags" \
     -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
@@ -29,7 +33,10 @@ run_asan() {
   export ASAN_OPTIONS=${ASAN_OPTIONS:-"detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1:check_initialization_order=1"}
   export LSAN_OPTIONS=${LSAN_OPTIONS:-"suppressions=$root/scripts/sanitizers/lsan.supp:print_suppressions=0"}
   export UBSAN_OPTIONS=${UBSAN_OPTIONS:-"print_stacktrace=1:halt_on_error=1"}
-  (cd "$asan_dir" && ctest --output-on-failure -j "$jobs" --timeout 1800 ${ASAN_FILTER:+-R "$ASAN_FILTER"})
+  # The embedding tests link the installed (instrumented) static libraries into an uninstrumented consumer
+  # and an uninstrumented python: packaging checks, run by `make test`, not memory checks.
+  (cd "$asan_dir" && ctest --output-on-failure -j "$jobs" --timeout 1800 ${ASAN_FILTER:+-R "$ASAN_FILTER"} \
+     -E "${ASAN_EXCLUDE:-^embedding_}")
   local t2=$(date +%s)
   echo "check-sanitize: asan+ubsan build $((t1 - t0)) s, suite $((t2 - t1)) s"
 }
