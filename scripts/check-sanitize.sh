@@ -22,7 +22,7 @@ run_asan() {
   # object ("downcast ... invalid vptr", _flow_graph_impl.h:368) and, unrecoverable, aborts every test that
   # steps a Simulation. It is TBB header code, not ours; UBSan suppressions do not apply to aborting checks.
   local flags="-fsanitize=address,undefined -fno-sanitize=vptr -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
-  test -f "$asan_dir/build.ninja" || cmake -S . -B "$asan_dir" "${common[@]}" \
+  cmake -S . -B "$asan_dir" "${common[@]}" \
     -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_C_FLAGS="$flags" \
     -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
     -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined"
@@ -43,7 +43,7 @@ run_asan() {
 
 run_tsan() {
   local flags="-fsanitize=thread -fno-omit-frame-pointer"
-  test -f "$tsan_dir/build.ninja" || cmake -S . -B "$tsan_dir" "${common[@]}" \
+  cmake -S . -B "$tsan_dir" "${common[@]}" \
     -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_C_FLAGS="$flags" \
     -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread" -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=thread"
   local t0=$(date +%s)
