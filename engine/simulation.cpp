@@ -494,7 +494,7 @@ int32_t Simulation::attach_finger(const std::string& name, const Vec2& uv) {
   if (v < 0) return -1;
   Finger f;
   f.name = name;
-  f.uv = m.sheet.verts.rest[v];
+  f.uv = uv;  // as asked: a replay inserts at the same point and so meets the same snapping
   f.vertex = v;
   f.attach_time = time();
   f.start = m.sheet.verts.x[v];
