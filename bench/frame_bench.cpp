@@ -6,6 +6,7 @@
 #include "engine/simulation.hpp"
 #include "systems/bending_forces.hpp"
 #include "systems/integrate.hpp"
+#include "systems/integrate_implicit.hpp"
 #include "systems/membrane_forces.hpp"
 #include "systems/topology.hpp"
 #include "engine/sheet_builder.hpp"
@@ -72,8 +73,8 @@ void BM_MembraneForces(benchmark::State& state) {
 }
 BENCHMARK(BM_MembraneForces)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
-// Physics only: 10 substeps of projective dynamics (one frame), one core.
-void BM_PhysicsFrame(benchmark::State& state) {
+// Physics only: 10 substeps of projective dynamics (one frame, "solver": "projective"), one core.
+void BM_PhysicsFrameProjective(benchmark::State& state) {
   Scenario s = bench::a4_scene(static_cast<int32_t>(state.range(0)), false);
   Sheet sheet = build_sheet(s);
   IntegrateParams params;
@@ -92,6 +93,27 @@ void BM_PhysicsFrame(benchmark::State& state) {
   }
   state.counters["triangles"] = sheet.tris.size();
 }
-BENCHMARK(BM_PhysicsFrame)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_PhysicsFrameProjective)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+// Physics only: 10 substeps of the default linearly implicit integrator (one frame), one core. The
+// numeric factorisation of each substep dominates.
+void BM_PhysicsFrameImplicit(benchmark::State& state) {
+  Scenario s = bench::a4_scene(static_cast<int32_t>(state.range(0)), false);
+  Sheet sheet = build_sheet(s);
+  ImplicitParams params;
+  params.dt = 1.0 / (s.sim.fps * s.sim.substeps);
+  ImplicitSolverPtr solver;
+  std::vector<int32_t> held;
+  std::vector<Vec3> target;
+  for (const Finger& f : sheet.fingers) {
+    held.push_back(f.vertex);
+    target.push_back(f.start);
+  }
+  for (auto _ : state) {
+    for (int32_t k = 0; k < s.sim.substeps; ++k) implicit_substep(params, held, target, solver, sheet);
+  }
+  state.counters["triangles"] = sheet.tris.size();
+}
+BENCHMARK(BM_PhysicsFrameImplicit)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
