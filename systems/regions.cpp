@@ -7,39 +7,37 @@
 
 namespace pt {
 
-namespace {
-Vec3 unit_normal(const std::vector<Vec3>& x, const Tri& t) {
-  const Vec3 n = (x[t[1]] - x[t[0]]).cross(x[t[2]] - x[t[0]]);
-  const double len = n.norm();
-  return len > 0 ? Vec3(n / len) : Vec3::Zero();
-}
-}  // namespace
-
 void triangle_bending(const std::vector<Vec3>& x, const std::vector<Tri>& tri, const Topology& topo,
                       std::vector<double>& bending) {
   const int32_t nt = static_cast<int32_t>(tri.size());
-  bending.assign(nt, 0.0);
+  // Normals and areas once per triangle, each shared edge's dihedral angle once (atan2 dominates).
+  thread_local std::vector<Vec3> normal;
+  thread_local std::vector<double> area;
+  normal.resize(nt);
+  area.resize(nt);
   for (int32_t t = 0; t < nt; ++t) {
-    const Vec3 n0 = unit_normal(x, tri[t]);
-    const double area = 0.5 * (x[tri[t][1]] - x[tri[t][0]]).cross(x[tri[t][2]] - x[tri[t][0]]).norm();
-    if (area <= 0) continue;
-    double sum = 0;
+    const Vec3 n = (x[tri[t][1]] - x[tri[t][0]]).cross(x[tri[t][2]] - x[tri[t][0]]);
+    const double len = n.norm();
+    normal[t] = len > 0 ? Vec3(n / len) : Vec3::Zero();
+    area[t] = 0.5 * len;
+  }
+  bending.assign(nt, 0.0);
+  for (int32_t t = 0; t < nt; ++t)
     for (int32_t i = 0; i < 3; ++i) {
       const int32_t o = topo.neighbor[t][i];
-      if (o < 0) continue;
-      const Vec3 a = x[tri[t][i]], b = x[tri[t][(i + 1) % 3]];
-      const Vec3 n1 = unit_normal(x, tri[o]);
-      const Vec3 e = b - a;
+      if (o <= t) continue;  // boundary, or done from the other side
+      const Vec3 e = x[tri[t][(i + 1) % 3]] - x[tri[t][i]];
       const double len = e.norm();
       if (len <= 0) continue;
-      // Signed dihedral angle about the shared edge: positive when the neighbour folds towards n0.
-      const double angle = std::atan2(n0.cross(n1).dot(e / len), n0.dot(n1));
-      sum += angle * len;
+      // Signed dihedral angle about the shared edge; the same seen from either triangle (the edge and
+      // the normals both swap).
+      const double angle = std::atan2(normal[t].cross(normal[o]).dot(e / len), normal[t].dot(normal[o]));
+      bending[t] += angle * len;
+      bending[o] += angle * len;
     }
-    // ∫H dA ≈ ½ Σ θ_e |e| over a region; each edge is shared by two triangles, so triangle t holds
-    // ¼ Σ θ_e |e|, and its normal curvature 2H ≈ ½ Σ θ_e |e| / A_t (a cylinder of radius r gives 1/r).
-    bending[t] = -0.5 * sum / area;
-  }
+  // ∫H dA ≈ ½ Σ θ_e |e| over a region; each edge is shared by two triangles, so triangle t holds
+  // ¼ Σ θ_e |e|, and its normal curvature 2H ≈ ½ Σ θ_e |e| / A_t (a cylinder of radius r gives 1/r).
+  for (int32_t t = 0; t < nt; ++t) bending[t] = area[t] > 0 ? -0.5 * bending[t] / area[t] : 0.0;
 }
 
 RegionSummary classify_regions(const std::vector<Vec3>& x, const std::vector<Tri>& tri, const Topology& topo,
@@ -47,15 +45,19 @@ RegionSummary classify_regions(const std::vector<Vec3>& x, const std::vector<Tri
                                std::vector<Region>& regions, std::vector<uint8_t>& flags) {
   const int32_t nt = static_cast<int32_t>(tri.size());
   const int32_t nv = static_cast<int32_t>(flags.size());
-  std::vector<double> raw;
+  thread_local std::vector<double> raw;
   triangle_bending(x, tri, topo, raw);
   // A coarse sheet wrinkles at the scale of its triangles (paper is floppy), so one triangle's bending
   // flips sign from neighbour to neighbour. Regions are about the shape at the scale of the hands:
   // average each triangle with its edge neighbours (area-weighted) smoothing_passes times.
-  std::vector<double> bending = raw, next(nt);
-  std::vector<double> area(nt);
-  for (int32_t t = 0; t < nt; ++t)
-    area[t] = 0.5 * (x[tri[t][1]] - x[tri[t][0]]).cross(x[tri[t][2]] - x[tri[t][0]]).norm();
+  std::vector<double>& bending = raw;
+  std::vector<double> next, area;
+  if (params.smoothing_passes > 0) {
+    next.resize(nt);
+    area.resize(nt);
+    for (int32_t t = 0; t < nt; ++t)
+      area[t] = 0.5 * (x[tri[t][1]] - x[tri[t][0]]).cross(x[tri[t][2]] - x[tri[t][0]]).norm();
+  }
   for (int32_t pass = 0; pass < params.smoothing_passes; ++pass) {
     for (int32_t t = 0; t < nt; ++t) {
       double sum = area[t] * bending[t], w = area[t];
