@@ -2,6 +2,8 @@
 #include "systems/membrane_forces.hpp"
 #include "systems/topology.hpp"
 
+#include "test_meshes.hpp"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -18,33 +20,7 @@ using Mat32 = Eigen::Matrix<double, 3, 2>;
 // A W x H rectangle as an nx x ny grid, each cell split into two counter-clockwise triangles (diagonals
 // alternate so the mesh has no preferred direction); interior vertices jittered by `jitter` cell sizes.
 Sheet make_grid(double W, double H, int nx, int ny, double jitter = 0, uint32_t seed = 1) {
-  Sheet s;
-  const int nv = (nx + 1) * (ny + 1);
-  s.verts.resize(nv);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  for (int j = 0; j <= ny; ++j)
-    for (int i = 0; i <= nx; ++i) {
-      Vec2 p(W * i / nx, H * j / ny);
-      if (i > 0 && i < nx && j > 0 && j < ny) p += jitter * Vec2(u(rng) * W / nx, u(rng) * H / ny);
-      const int id = j * (nx + 1) + i;
-      s.verts.rest[id] = p;
-      s.verts.x[id] = Vec3(p.x(), p.y(), 0);
-    }
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) {
-      const int a = j * (nx + 1) + i, b = a + 1, c = a + nx + 1, d = c + 1;
-      if ((i + j) % 2 == 0) {
-        s.tris.tri.push_back({a, b, d});
-        s.tris.tri.push_back({a, d, c});
-      } else {
-        s.tris.tri.push_back({a, b, c});
-        s.tris.tri.push_back({b, d, c});
-      }
-    }
-  s.tris.resize(static_cast<int32_t>(s.tris.tri.size()));
-  refresh_after_topology_change(s);
-  return s;
+  return test::alternating_grid(W, H, nx, ny, jitter, seed);
 }
 
 MembraneParams paper_params() { return membrane_params(Material{}); }
