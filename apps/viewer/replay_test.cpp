@@ -48,7 +48,7 @@ TEST(ViewerReplay, RecordedSessionReplaysToTheSameTears) {
   constexpr int kFrames = 75;
   Simulation live(base);
   int a = -1, b = -1;
-  Vec3 a0, b0;
+  Vec3 a0 = Vec3::Zero(), b0 = Vec3::Zero();
   for (int f = 0; f < kFrames; ++f) {
     if (f == 3) {
       a = live.attach_finger("L", Vec2(0.054, 0.2));
