@@ -3,6 +3,8 @@
 #include "systems/propagation.hpp"
 #include "systems/topology.hpp"
 
+#include "test_meshes.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -14,22 +16,9 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-Vec2 polar(double deg) { return Vec2(std::cos(deg * kPi / 180), std::sin(deg * kPi / 180)); }
-Vec3 flat(const Vec2& v) { return Vec3(v.x(), v.y(), 0); }
-
-// Boundary vertex 0 at the origin, fan of triangles (0, i, i+1) to ring vertices at the given ascending
-// angles (degrees, radius 1); triangle i spans [ring[i], ring[i+1]]. Flat: x = (u, v, 0).
-Sheet fan_sheet(const std::vector<double>& ring_deg) {
-  Sheet s;
-  const int32_t n = static_cast<int32_t>(ring_deg.size());
-  s.verts.resize(n + 1);
-  for (int32_t i = 0; i < n; ++i) s.verts.rest[i + 1] = polar(ring_deg[i]);
-  for (int32_t i = 0; i <= n; ++i) s.verts.x[i] = flat(s.verts.rest[i]);
-  s.tris.resize(n - 1);
-  for (int32_t i = 0; i + 1 < n; ++i) s.tris.tri[i] = Tri{0, i + 1, i + 2};
-  refresh_after_topology_change(s);
-  return s;
-}
+using test::fan_sheet;
+using test::flat;
+using test::polar;
 
 // A notch opening toward +y with its tip at vertex 0: the sheet covers every direction from p except
 // the wedge between 80° and 100°. Interior angle 340°.

@@ -4,6 +4,8 @@
 #include "components/sheet.hpp"
 #include "systems/topology.hpp"
 
+#include <cmath>
+#include <numbers>
 #include <random>
 
 namespace pt::test {
@@ -69,6 +71,25 @@ inline Sheet alternating_grid(double W, double H, int nx, int ny, double jitter,
       }
     }
   s.tris.resize(static_cast<int32_t>(s.tris.tri.size()));
+  refresh_after_topology_change(s);
+  return s;
+}
+
+// Boundary vertex 0 at the origin with a fan of triangles (0, i, i+1) to ring vertices at the given
+// angles (ascending, degrees, radius 1): triangle i spans the ring angles [ring[i], ring[i+1]]. The
+// sheet is flat (x = (u, v, 0)). boundary_next(0) is the ring's first vertex, boundary_prev its last.
+inline Vec2 polar(double deg) {
+  return Vec2(std::cos(deg * std::numbers::pi / 180), std::sin(deg * std::numbers::pi / 180));
+}
+inline Vec3 flat(const Vec2& v) { return Vec3(v.x(), v.y(), 0); }
+inline Sheet fan_sheet(const std::vector<double>& ring_deg) {
+  Sheet s;
+  const int32_t n = static_cast<int32_t>(ring_deg.size());
+  s.verts.resize(n + 1);
+  for (int32_t i = 0; i < n; ++i) s.verts.rest[i + 1] = polar(ring_deg[i]);
+  for (int32_t i = 0; i <= n; ++i) s.verts.x[i] = flat(s.verts.rest[i]);
+  s.tris.resize(n - 1);
+  for (int32_t i = 0; i + 1 < n; ++i) s.tris.tri[i] = Tri{0, i + 1, i + 2};
   refresh_after_topology_change(s);
   return s;
 }
