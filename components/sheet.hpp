@@ -73,6 +73,16 @@ struct Vertices {
     flags.resize(n, 0);
     tear.resize(n, -1);
   }
+  // Copies entry `from` over entry `to` in every array (swap-remove keeps the arrays dense).
+  void copy_entry(int32_t from, int32_t to) {
+    x[to] = x[from];
+    v[to] = v[from];
+    force[to] = force[from];
+    rest[to] = rest[from];
+    mass[to] = mass[from];
+    flags[to] = flags[from];
+    tear[to] = tear[from];
+  }
 };
 
 // Per triangle. `corner_force[t][i]` is the membrane force triangle t applies to its corner i
@@ -95,6 +105,15 @@ struct Triangles {
     region.resize(n, -1);
     piece.resize(n, 0);
     side.resize(n, 0);
+  }
+  void copy_entry(int32_t from, int32_t to) {
+    tri[to] = tri[from];
+    rest_inv[to] = rest_inv[from];
+    rest_area[to] = rest_area[from];
+    corner_force[to] = corner_force[from];
+    region[to] = region[from];
+    piece[to] = piece[from];
+    side[to] = side[from];
   }
 };
 

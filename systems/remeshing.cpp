@@ -559,15 +559,7 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
   std::sort(dead.rbegin(), dead.rend());
   for (int32_t t : dead) {
     const int32_t last = T.size() - 1;
-    if (t != last) {
-      T.tri[t] = T.tri[last];
-      T.rest_inv[t] = T.rest_inv[last];
-      T.rest_area[t] = T.rest_area[last];
-      T.corner_force[t] = T.corner_force[last];
-      T.region[t] = T.region[last];
-      T.piece[t] = T.piece[last];
-      T.side[t] = T.side[last];
-    }
+    if (t != last) T.copy_entry(last, t);
     T.resize(last);
   }
   Vertices& V = sheet.verts;
@@ -580,13 +572,7 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
   for (int32_t v : gone) {
     const int32_t slot = where[v], last = V.size() - 1;
     if (slot != last) {
-      V.x[slot] = V.x[last];
-      V.v[slot] = V.v[last];
-      V.force[slot] = V.force[last];
-      V.rest[slot] = V.rest[last];
-      V.mass[slot] = V.mass[last];
-      V.flags[slot] = V.flags[last];
-      V.tear[slot] = V.tear[last];
+      V.copy_entry(last, slot);
       const int32_t moved = at[last];
       where[moved] = slot;
       at[slot] = moved;
