@@ -1,7 +1,7 @@
 #include "systems/integrate_implicit.hpp"
 
-#include <Eigen/SparseCholesky>
-#include <Eigen/SparseCore>
+#include "systems/block_ldlt.hpp"
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
@@ -10,7 +10,6 @@
 namespace pt {
 
 namespace {
-using Mat3 = Eigen::Matrix3d;
 using Mat32 = Eigen::Matrix<double, 3, 2>;
 
 // Upper blocks of a triangle's 9x9 stiffness, in this order: (0,0) (0,1) (0,2) (1,1) (1,2) (2,2).
@@ -34,13 +33,12 @@ struct ImplicitSolver {
 
   int32_t free_count = 0;
   std::vector<int32_t> free_index;                 // vertex → free index, −1 when held
-  Eigen::SparseMatrix<double> matrix;              // 3·free × 3·free, full symmetric storage
-  std::vector<std::array<int32_t, 3>> block_base;  // per block: value offset of its first row in each column
-  std::vector<std::pair<int32_t, int32_t>> block_key;  // sorted (I, J) of every non-zero 3x3 block
+  std::vector<std::pair<int32_t, int32_t>> block_key;  // sorted (I, J) of every non-zero 3x3 block (both halves)
+  std::vector<Mat3> block_values;                  // the matrix, one 3x3 block per key
   std::vector<std::array<int32_t, 9>> tri_block;   // per triangle, corner pair (a, b) → block, −1 if not free
   std::vector<BendingStencil> stencils;
-  std::vector<double> base_values;                 // M(1 + hα) + (h² + hβ) Q, in matrix value order
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> llt;
+  std::vector<Mat3> base_values;                   // M(1 + hα) + (h² + hβ) Q, per block
+  BlockLdlt ldlt;
   bool analysed = false;
 
   // Scratch reused every substep.
@@ -52,10 +50,6 @@ struct ImplicitSolver {
   int32_t block_of(int32_t i, int32_t j) const {
     const auto it = std::lower_bound(block_key.begin(), block_key.end(), std::make_pair(i, j));
     return (it != block_key.end() && *it == std::make_pair(i, j)) ? static_cast<int32_t>(it - block_key.begin()) : -1;
-  }
-  void add_block(std::vector<double>& values, int32_t block, const Mat3& k) const {
-    for (int c = 0; c < 3; ++c)
-      for (int r = 0; r < 3; ++r) values[block_base[block][c] + r] += k(r, c);
   }
 };
 
@@ -100,27 +94,7 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
   std::sort(s.block_key.begin(), s.block_key.end());
   s.block_key.erase(std::unique(s.block_key.begin(), s.block_key.end()), s.block_key.end());
 
-  // Scalar pattern (3x3 dense blocks), compressed column storage.
   const int32_t n = 3 * s.free_count;
-  std::vector<Eigen::Triplet<double>> triplets;
-  triplets.reserve(9 * s.block_key.size());
-  for (const auto& [i, j] : s.block_key)
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) triplets.emplace_back(3 * i + r, 3 * j + c, 0.0);
-  s.matrix.resize(n, n);
-  s.matrix.setFromTriplets(triplets.begin(), triplets.end());
-  s.matrix.makeCompressed();
-  s.block_base.resize(s.block_key.size());
-  const int* outer = s.matrix.outerIndexPtr();
-  const int* inner = s.matrix.innerIndexPtr();
-  for (size_t b = 0; b < s.block_key.size(); ++b) {
-    const auto [i, j] = s.block_key[b];
-    for (int c = 0; c < 3; ++c) {
-      const int col = 3 * j + c;
-      const int* first = std::lower_bound(inner + outer[col], inner + outer[col + 1], 3 * i);
-      s.block_base[b][c] = static_cast<int32_t>(first - inner);
-    }
-  }
   s.tri_block.assign(nt, {});
   for (int32_t t = 0; t < nt; ++t)
     for (int a = 0; a < 3; ++a)
@@ -132,20 +106,21 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
   // Constant part: lumped mass with mass damping, and the (constant) bending Hessian Q.
   const double h = params.dt;
   const double kscale = h * h + h * s.beta;
-  s.base_values.assign(s.matrix.nonZeros(), 0.0);
+  s.base_values.assign(s.block_key.size(), Mat3::Zero());
   for (int32_t v = 0; v < nv; ++v) {
     const int32_t i = s.free_index[v];
     if (i < 0) continue;
-    s.add_block(s.base_values, s.block_of(i, i), Mat3::Identity() * V.mass[v] * (1 + h * s.alpha));
+    s.base_values[s.block_of(i, i)] += Mat3::Identity() * V.mass[v] * (1 + h * s.alpha);
   }
   for (const BendingStencil& st : s.stencils)
     for (int a = 0; a < 4; ++a)
       for (int b = 0; b < 4; ++b) {
         const int32_t i = s.free_index[st.v[a]], j = s.free_index[st.v[b]];
-        if (i >= 0 && j >= 0) s.add_block(s.base_values, s.block_of(i, j), Mat3::Identity() * kscale * st.w[a] * st.w[b]);
+        if (i >= 0 && j >= 0) s.base_values[s.block_of(i, j)] += Mat3::Identity() * kscale * st.w[a] * st.w[b];
       }
 
-  s.llt.analyzePattern(s.matrix);
+  analyze_block_ldlt(s.free_count, s.block_key, s.ldlt);
+  s.block_values.resize(s.block_key.size());
   s.analysed = true;
   s.tri_k.resize(nt);
   s.rhs.resize(n);
@@ -218,8 +193,8 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   add_bending_forces(V.x, s.stencils, V.force);
 
   // Assemble the matrix values (serial, triangle order: deterministic) and the coupling to held vertices.
-  double* values = s.matrix.valuePtr();
-  std::copy(s.base_values.begin(), s.base_values.end(), values);
+  std::vector<Mat3>& values = s.block_values;
+  std::copy(s.base_values.begin(), s.base_values.end(), values.begin());
   s.rhs.setZero();
   for (int32_t v = 0; v < nv; ++v) {
     const int32_t i = s.free_index[v];
@@ -233,16 +208,10 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
       const int32_t va = T.tri[t][a], vb = T.tri[t][b];
       const int32_t ia = s.free_index[va], ib = s.free_index[vb];
       const int32_t blk_ab = s.tri_block[t][3 * a + b];
-      if (blk_ab >= 0) {
-        for (int c = 0; c < 3; ++c)
-          for (int r = 0; r < 3; ++r) values[s.block_base[blk_ab][c] + r] += kab(r, c);
-      }
+      if (blk_ab >= 0) values[blk_ab] += kab;
       if (a != b) {
         const int32_t blk_ba = s.tri_block[t][3 * b + a];
-        if (blk_ba >= 0) {
-          for (int c = 0; c < 3; ++c)
-            for (int r = 0; r < 3; ++r) values[s.block_base[blk_ba][c] + r] += kab(c, r);
-        }
+        if (blk_ba >= 0) values[blk_ba] += kab.transpose();
         if (ia >= 0 && ib < 0) s.rhs.segment<3>(3 * ia) -= kab * vnext[vb];
         if (ib >= 0 && ia < 0) s.rhs.segment<3>(3 * ib) -= kab.transpose() * vnext[va];
       }
@@ -255,13 +224,12 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
         if (ia >= 0 && ib < 0) s.rhs.segment<3>(3 * ia) -= kscale * st.w[a] * st.w[b] * vnext[st.v[b]];
       }
 
-  s.llt.factorize(s.matrix);
   s.stats.factorizations += 1;
-  if (s.llt.info() != Eigen::Success) {
+  if (!factorize_block_ldlt(values, s.ldlt)) {
     s.stats.failures += 1;
     return false;
   }
-  s.solution = s.llt.solve(s.rhs);
+  solve_block_ldlt(s.ldlt, s.rhs.data(), s.solution.data());
   if (!s.solution.allFinite()) {
     s.stats.failures += 1;
     return false;
