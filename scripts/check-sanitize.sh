@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # Sanitizer builds (issue 9): an ASan+UBSan build that runs the whole ctest suite, then a TSan build that
 # runs the threaded tests (frame graph inside a task arena, batches over sheets, thread-count determinism).
-# Usage: scripts/check-sanitize.sh [asan|tsan|all]   (JOBS, ASAN_BUILD, TSAN_BUILD, TSAN_FILTER overridable)
+# Usage: scripts/check-sanitize.sh [asan|tsan|all]   (JOBS, ASAN_BUILD, TSAN_BUILD, TBB_TSAN_BUILD, TSAN_FILTER
+# overridable)
 set -euo pipefail
 what=${1:-all}
 jobs=${JOBS:-2}
 asan_dir=${ASAN_BUILD:-build-asan}
 tsan_dir=${TSAN_BUILD:-build-tsan}
+tbb_tsan_dir=${TBB_TSAN_BUILD:-build-tbb-tsan}
 # Threaded tests: scenarios (two pulls, 1 vs 2 threads), the CLI (run, batch, thread-independent hash),
 # the hostile motions (threads 2) and the viewer replay (engine driven by recorded sessions).
 tsan_filter=${TSAN_FILTER:-'^(Scenarios|Cli|Hostile)\.|viewer_replay'}
@@ -43,9 +45,58 @@ run_asan() {
   echo "check-sanitize: asan+ubsan build $((t1 - t0)) s, suite $((t2 - t1)) s"
 }
 
+# Debian's libtbb12 is not instrumented: TSan cannot see the synchronisation between oneTBB's workers and
+# the thread in wait_for_all()/parallel_for, and reports every hand-off as a race. So the TSan build links a
+# oneTBB built with -fsanitize=thread from Debian's own source package (the version of the installed
+# libtbb-dev, Debian's patches applied), fetched with a private apt configuration (deb-src lists under
+# $tbb_tsan_dir/apt; the system's apt sources are not touched). Built once, then cached (stamp file).
+build_tbb_tsan() {
+  local dir=$root/$tbb_tsan_dir
+  local prefix=$dir/install
+  local ver
+  ver=$(dpkg-query -W -f='${Version}' libtbb-dev)
+  if [ -f "$dir/stamp" ] && [ "$(cat "$dir/stamp")" = "$ver" ] && [ -f "$prefix/lib/cmake/TBB/TBBConfig.cmake" ]; then
+    echo "check-sanitize: instrumented oneTBB $ver already in $prefix"
+    return
+  fi
+  local t0=$(date +%s)
+  rm -rf "$dir/src" "$dir/build" "$prefix" "$dir/stamp"
+  mkdir -p "$dir/apt/lists/partial" "$dir/src"
+  cat > "$dir/apt/deb-src.sources" <<'SRC'
+Types: deb-src
+URIs: http://deb.debian.org/debian
+Suites: bookworm bookworm-updates
+Components: main
+Signed-By: /usr/share/keyrings/debian-archive-keyring.gpg
+SRC
+  local apto=(-o Dir::Etc::SourceList="$dir/apt/deb-src.sources" -o Dir::Etc::SourceParts=/dev/null
+              -o Dir::State::Lists="$dir/apt/lists" -o APT::Sandbox::User=root)
+  apt-get "${apto[@]}" -qq update
+  # dpkg-source (dpkg-dev, part of build-essential) unpacks it and applies Debian's patches.
+  (cd "$dir/src" && { apt-get "${apto[@]}" -qq source "onetbb=$ver" ||
+     { echo "check-sanitize: onetbb $ver not in the archive, taking its current version" >&2;
+       apt-get "${apto[@]}" -qq source onetbb; }; })
+  local srcdir
+  srcdir=$(find "$dir/src" -mindepth 1 -maxdepth 1 -type d -name 'onetbb-*' | head -n1)
+  # TBB_SANITIZE=thread adds -fsanitize=thread to oneTBB's compile and link flags (cmake/sanitize.cmake) and
+  # turns IPO off (GCC does not instrument under LTO). No tests, no tbbmalloc (the engine links TBB::tbb
+  # only), no hwloc binding library.
+  cmake -S "$srcdir" -B "$dir/build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DTBB_SANITIZE=thread -DTBB_TEST=OFF -DTBB_EXAMPLES=OFF -DTBB_STRICT=OFF -DTBBMALLOC_BUILD=OFF \
+    -DTBB_DISABLE_HWLOC_AUTOMATIC_SEARCH=ON -DCMAKE_INSTALL_PREFIX="$prefix" -DCMAKE_INSTALL_LIBDIR=lib
+  nice -n 10 cmake --build "$dir/build" -j "$jobs"
+  cmake --install "$dir/build"
+  echo "$ver" > "$dir/stamp"
+  echo "check-sanitize: instrumented oneTBB $ver built in $(( $(date +%s) - t0 )) s"
+}
+
 run_tsan() {
+  build_tbb_tsan
+  local tbb_prefix=$root/$tbb_tsan_dir/install
   local flags="-fsanitize=thread -fno-omit-frame-pointer"
-  cmake -S . -B "$tsan_dir" "${common[@]}" \
+  # TBB_DIR: the instrumented oneTBB (headers and libtbb.so.12); CMake's build-tree RUNPATH then points
+  # the test binaries at it (checked with ldd below).
+  cmake -S . -B "$tsan_dir" "${common[@]}" -DTBB_DIR="$tbb_prefix/lib/cmake/TBB" \
     -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_C_FLAGS="$flags" \
     -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread" -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=thread"
   local t0=$(date +%s)
@@ -57,6 +108,15 @@ run_tsan() {
   done
   cmake --build "$tsan_dir" -j "$jobs" --target "${targets[@]}"
   local t1=$(date +%s)
+  local b lib
+  for b in "$tsan_dir"/bin/*; do
+    [ -x "$b" ] && [ -f "$b" ] || continue
+    lib=$(ldd "$b" | awk '$1 == "libtbb.so.12" {print $3}')
+    if [ -n "$lib" ] && [ "$(readlink -f "$lib")" != "$(readlink -f "$tbb_prefix/lib/libtbb.so.12")" ]; then
+      echo "check-sanitize: $b loads $lib, not the instrumented oneTBB" >&2
+      exit 1
+    fi
+  done
   export TSAN_OPTIONS=${TSAN_OPTIONS:-"halt_on_error=1:second_deadlock_stack=1:suppressions=$root/scripts/sanitizers/tsan.supp"}
   (cd "$tsan_dir" && ctest --output-on-failure -j "$jobs" --timeout 1800 -R "$tsan_filter")
   local t2=$(date +%s)
