@@ -2,7 +2,6 @@
 
 #include "systems/block_ldlt.hpp"
 
-#include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <cmath>
@@ -47,11 +46,29 @@ struct ImplicitSolver {
   std::vector<Vec3> velocity_next;
   ImplicitStats stats;
 
+  std::vector<int32_t> row_start;                  // per free row I, its first key (keys sorted by row)
+  std::vector<int32_t> pair_row, pair_column;      // scratch of the structure build
+
   int32_t block_of(int32_t i, int32_t j) const {
-    const auto it = std::lower_bound(block_key.begin(), block_key.end(), std::make_pair(i, j));
-    return (it != block_key.end() && *it == std::make_pair(i, j)) ? static_cast<int32_t>(it - block_key.begin()) : -1;
+    const auto first = block_key.begin() + row_start[i], last = block_key.begin() + row_start[i + 1];
+    const auto it = std::lower_bound(first, last, std::make_pair(i, j));
+    return (it != last && *it == std::make_pair(i, j)) ? static_cast<int32_t>(it - block_key.begin()) : -1;
   }
 };
+
+namespace {
+// Σ⁺: the positive part of a symmetric 2x2 stress, in closed form (λ± = m ± r; the projector on the λ+
+// eigenvector is (Σ − λ− I)/(λ+ − λ−)).
+Mat2 tensile_part(const Mat2& stress) {
+  const double m = 0.5 * (stress(0, 0) + stress(1, 1));
+  const double d = 0.5 * (stress(0, 0) - stress(1, 1));
+  const double r = std::sqrt(d * d + stress(0, 1) * stress(0, 1));
+  const double high = m + r, low = m - r;
+  if (low >= 0) return stress;
+  if (high <= 0) return Mat2::Zero();
+  return (high / (high - low)) * (stress - low * Mat2::Identity());
+}
+}  // namespace
 
 void ImplicitSolverDeleter::operator()(ImplicitSolver* s) const { delete s; }
 const ImplicitStats& implicit_solver_stats(const ImplicitSolver& solver) { return solver.stats; }
@@ -78,11 +95,15 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
 
   build_bending_stencils(V.rest, sheet.topo.hinges, bending_stiffness(sheet.material), s.stencils);
 
-  // Non-zero blocks: every pair of free vertices that share a triangle or a hinge.
-  s.block_key.clear();
+  // Non-zero blocks: every pair of free vertices that share a triangle or a hinge. Bucketed by row, then
+  // each (short) row sorted: the keys come out sorted by (I, J) without a global sort.
+  s.pair_row.clear();
+  s.pair_column.clear();
   auto add_pair = [&](int32_t a, int32_t b) {
     const int32_t i = s.free_index[a], j = s.free_index[b];
-    if (i >= 0 && j >= 0) s.block_key.emplace_back(i, j);
+    if (i < 0 || j < 0) return;
+    s.pair_row.push_back(i);
+    s.pair_column.push_back(j);
   };
   for (const Tri& t : T.tri)
     for (int32_t a : t)
@@ -91,8 +112,22 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
     for (int32_t a : st.v)
       for (int32_t b : st.v) add_pair(a, b);
   for (int32_t v = 0; v < nv; ++v) add_pair(v, v);  // isolated free vertices still have their mass
-  std::sort(s.block_key.begin(), s.block_key.end());
-  s.block_key.erase(std::unique(s.block_key.begin(), s.block_key.end()), s.block_key.end());
+  {
+    std::vector<int32_t> start(s.free_count + 1, 0);
+    for (int32_t i : s.pair_row) ++start[i + 1];
+    for (int32_t i = 0; i < s.free_count; ++i) start[i + 1] += start[i];
+    std::vector<int32_t> columns(s.pair_row.size()), next(start.begin(), start.end() - 1);
+    for (size_t q = 0; q < s.pair_row.size(); ++q) columns[next[s.pair_row[q]]++] = s.pair_column[q];
+    s.block_key.clear();
+    s.row_start.assign(s.free_count + 1, 0);
+    for (int32_t i = 0; i < s.free_count; ++i) {
+      const auto first = columns.begin() + start[i], last = columns.begin() + start[i + 1];
+      std::sort(first, last);
+      for (auto it = first; it != last; ++it)
+        if (it == first || *it != *(it - 1)) s.block_key.emplace_back(i, *it);
+      s.row_start[i + 1] = static_cast<int32_t>(s.block_key.size());
+    }
+  }
 
   const int32_t n = 3 * s.free_count;
   s.tri_block.assign(nt, {});
@@ -165,9 +200,8 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
       g[1] = Dinv.row(0).transpose();
       g[2] = Dinv.row(1).transpose();
       g[0] = -(g[1] + g[2]);
-      const double ea = mp.thickness * T.rest_area[t];
+      const double ea = kscale * mp.thickness * T.rest_area[t];  // the (h² + hβ) of the system folded in
       const Mat3 in_plane = R * R.transpose();
-      const Mat3 normal = Mat3::Identity() - in_plane;
       // Geometric (tension) stiffness for out-of-plane motion: g_aᵀ Σ g_b (I − R Rᵀ) with Σ the stress
       // in the triangle's frame, clamped to its tensile part (paper under compression buckles freely).
       // Without it a finger lifting a taut sheet would leave its neighbours behind for a substep and
@@ -175,15 +209,17 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
       Mat2 strain = R.transpose() * F;
       strain = 0.5 * (strain + strain.transpose()) - Mat2::Identity();
       const Mat2 stress = 2 * mp.mu * strain + mp.lambda * strain.trace() * Mat2::Identity();
-      const Eigen::SelfAdjointEigenSolver<Mat2> eig(stress);
-      const Mat2 tension =
-          eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+      const Mat2 tension = tensile_part(stress);
       Vec3 rg[3];
       for (int a = 0; a < 3; ++a) rg[a] = R * g[a];
+      // 2μ(g_a·g_b) RRᵀ + λ (R g_a)(R g_b)ᵀ + (g_aᵀ Σ⁺ g_b)(I − RRᵀ), with I − RRᵀ expanded.
       for (int k = 0; k < 6; ++k) {
         const int a = kPairA[k], b = kPairB[k];
-        s.tri_k[t][k] = ea * (2 * mp.mu * g[a].dot(g[b]) * in_plane + mp.lambda * rg[a] * rg[b].transpose() +
-                              g[a].dot(tension * g[b]) * normal);
+        const double geometric = g[a].dot(tension * g[b]);
+        Mat3 block = (2 * mp.mu * g[a].dot(g[b]) - geometric) * in_plane;
+        block.noalias() += mp.lambda * rg[a] * rg[b].transpose();
+        block.diagonal().array() += geometric;
+        s.tri_k[t][k] = ea * block;
       }
     }
   });
@@ -204,7 +240,7 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   for (int32_t t = 0; t < nt; ++t) {
     for (int k = 0; k < 6; ++k) {
       const int a = kPairA[k], b = kPairB[k];
-      const Mat3 kab = kscale * s.tri_k[t][k];
+      const Mat3& kab = s.tri_k[t][k];
       const int32_t va = T.tri[t][a], vb = T.tri[t][b];
       const int32_t ia = s.free_index[va], ib = s.free_index[vb];
       const int32_t blk_ab = s.tri_block[t][3 * a + b];
