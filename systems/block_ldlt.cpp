@@ -5,9 +5,103 @@
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCore>
 
+#include <algorithm>
+
 namespace pt {
 
-void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>>& keys, BlockLdlt& out) {
+namespace {
+
+// Splits the elimination tree into disjoint subtrees of similar work (updates per column, summed over the
+// subtree): starting from the roots, the heaviest subtree is replaced by its children, its root joining
+// the serial top, until there are `params.tasks` subtrees or the heaviest is a leaf. With a fill-reducing
+// order the top is the chain of the last separators, which is serial work whatever the split. The
+// subtrees are then packed into at most `params.tasks` bins, heaviest first into the lightest bin.
+void split_into_subtrees(const std::vector<int32_t>& parent, const std::vector<int64_t>& column_work,
+                         const BlockLdltParams& params, BlockLdlt& out) {
+  const int32_t n = static_cast<int32_t>(parent.size());
+  out.task_start.clear();
+  out.task_columns.clear();
+  out.top_columns.clear();
+  if (n < params.min_parallel_blocks || params.tasks < 2) {
+    out.task_start = {0, n};
+    out.task_columns.resize(n);
+    for (int32_t k = 0; k < n; ++k) out.task_columns[k] = k;
+    return;
+  }
+  std::vector<int64_t> subtree_work(column_work);
+  std::vector<std::vector<int32_t>> children(n);
+  std::vector<int32_t> subtrees;
+  for (int32_t k = 0; k < n; ++k) {  // parent[k] > k: a subtree is complete before its root
+    if (parent[k] < 0) {
+      subtrees.push_back(k);
+      continue;
+    }
+    subtree_work[parent[k]] += subtree_work[k];
+    children[parent[k]].push_back(k);
+  }
+  auto heavier = [&](int32_t a, int32_t b) {
+    return subtree_work[a] > subtree_work[b] || (subtree_work[a] == subtree_work[b] && a < b);
+  };
+  std::vector<char> is_top(n, 0);
+  while (static_cast<int32_t>(subtrees.size()) < params.tasks) {
+    const auto heaviest = std::min_element(subtrees.begin(), subtrees.end(), heavier);
+    const int32_t node = *heaviest;
+    if (children[node].empty()) break;
+    is_top[node] = 1;
+    subtrees.erase(heaviest);
+    subtrees.insert(subtrees.end(), children[node].begin(), children[node].end());
+  }
+  std::sort(subtrees.begin(), subtrees.end(), heavier);
+  const int32_t bins = std::min<int32_t>(params.tasks, static_cast<int32_t>(subtrees.size()));
+  std::vector<int64_t> bin_work(bins, 0);
+  std::vector<int32_t> task_of(n, -1);
+  for (int32_t root : subtrees) {
+    const auto bin = std::min_element(bin_work.begin(), bin_work.end()) - bin_work.begin();
+    bin_work[bin] += subtree_work[root];
+    task_of[root] = static_cast<int32_t>(bin);
+  }
+  for (int32_t k = n - 1; k >= 0; --k)  // descendants take their subtree root's task
+    if (task_of[k] < 0 && !is_top[k] && parent[k] >= 0) task_of[k] = task_of[parent[k]];
+  out.task_start.assign(bins + 1, 0);
+  for (int32_t k = 0; k < n; ++k)
+    if (task_of[k] >= 0) ++out.task_start[task_of[k] + 1];
+  for (int32_t t = 0; t < bins; ++t) out.task_start[t + 1] += out.task_start[t];
+  out.task_columns.resize(out.task_start[bins]);
+  std::vector<int32_t> next(out.task_start.begin(), out.task_start.end() - 1);
+  for (int32_t k = 0; k < n; ++k) {
+    if (task_of[k] >= 0)
+      out.task_columns[next[task_of[k]]++] = k;
+    else
+      out.top_columns.push_back(k);
+  }
+}
+
+// Row k of L and the pivot D_k: a sparse triangular solve L(0:k, 0:k) Y = A(0:k, k) in topological order
+// (Davis' ldl_numeric over blocks), with the row pattern and slots precomputed. False on a pivot block that
+// is not symmetric positive definite (the matrix is not, or lost it to rounding) or not finite.
+bool factor_column(const std::vector<Mat3>& values, int32_t k, std::vector<Mat3>& y, BlockLdlt& s) {
+  for (int32_t q = s.column_start[k]; q < s.column_start[k + 1]; ++q) y[s.column_row[q]] = values[s.column_key[q]];
+  Mat3 d = values[s.diagonal_key[k]];
+  for (int32_t t = s.pattern_start[k]; t < s.pattern_start[k + 1]; ++t) {
+    const int32_t i = s.pattern_column[t], slot = s.pattern_slot[t];
+    const Mat3 yi = y[i];
+    y[i].setZero();
+    for (int32_t p = s.l_start[i]; p < slot; ++p) y[s.l_row[p]].noalias() -= s.l_blocks[p] * yi;
+    const Mat3 lki = yi.transpose() * s.d_inverse[i];  // L(k, i) = Y_iᵀ D_i⁻¹ (D_i symmetric)
+    d.noalias() -= lki * yi;
+    s.l_blocks[slot] = lki;
+  }
+  d = 0.5 * (d + d.transpose());
+  const Eigen::LLT<Mat3> pivot(d);
+  if (pivot.info() != Eigen::Success || !d.allFinite()) return false;
+  s.d_inverse[k] = d.inverse();  // closed-form 3x3 (cofactors); d is known SPD here
+  return true;
+}
+
+}  // namespace
+
+void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>>& keys, const BlockLdltParams& params,
+                        BlockLdlt& out) {
   out = BlockLdlt{};
   out.n = n;
 
@@ -63,6 +157,7 @@ void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>
   out.pattern_column.reserve(out.l_start[n]);
   out.pattern_slot.reserve(out.l_start[n]);
   std::vector<int32_t> filled(n, 0), stack(n), path(n);
+  std::vector<int64_t> column_work(n, 1);  // block updates of each column, for the task split
   std::fill(flag.begin(), flag.end(), -1);
   for (int32_t k = 0; k < n; ++k) {
     int32_t top = n;
@@ -81,41 +176,37 @@ void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>
       out.l_row[slot] = k;
       out.pattern_column.push_back(i);
       out.pattern_slot.push_back(slot);
+      column_work[k] += slot - out.l_start[i] + 2;
     }
     out.pattern_start[k + 1] = static_cast<int32_t>(out.pattern_column.size());
   }
   out.l_blocks.assign(out.l_start[n], Mat3::Zero());
   out.d_inverse.assign(n, Mat3::Zero());
-  out.work.assign(n, Mat3::Zero());
+  split_into_subtrees(parent, column_work, params, out);
+  out.work.assign(out.task_start.size(), std::vector<Mat3>(n, Mat3::Zero()));
 }
 
-bool factorize_block_ldlt(const std::vector<Mat3>& values, BlockLdlt& s) {
+bool factorize_block_ldlt(const std::vector<Mat3>& values, const RangeRunner& run, BlockLdlt& s) {
   s.factorized = false;
-  std::vector<Mat3>& y = s.work;
-  for (int32_t k = 0; k < s.n; ++k) {
-    // Row k of L by a sparse triangular solve L(0:k, 0:k) Y = A(0:k, k), in topological order.
-    for (int32_t q = s.column_start[k]; q < s.column_start[k + 1]; ++q) y[s.column_row[q]] = values[s.column_key[q]];
-    Mat3 d = values[s.diagonal_key[k]];
-    for (int32_t t = s.pattern_start[k]; t < s.pattern_start[k + 1]; ++t) {
-      const int32_t i = s.pattern_column[t], slot = s.pattern_slot[t];
-      const Mat3 yi = y[i];
-      y[i].setZero();
-      for (int32_t p = s.l_start[i]; p < slot; ++p) y[s.l_row[p]].noalias() -= s.l_blocks[p] * yi;
-      const Mat3 lki = yi.transpose() * s.d_inverse[i];  // L(k, i) = Y_iᵀ D_i⁻¹ (D_i symmetric)
-      d.noalias() -= lki * yi;
-      s.l_blocks[slot] = lki;
-    }
-    // Pivot block: symmetric positive definite, else the matrix is not (or lost it to rounding).
-    d = 0.5 * (d + d.transpose());
-    const Eigen::LLT<Mat3> pivot(d);
-    if (pivot.info() != Eigen::Success || !d.allFinite()) {
-      for (Mat3& m : y) m.setZero();
-      return false;
-    }
-    s.d_inverse[k] = d.inverse();  // closed-form 3x3 (cofactors); d is known SPD here
-  }
-  s.factorized = true;
-  return true;
+  const int32_t tasks = static_cast<int32_t>(s.task_start.size()) - 1;
+  std::vector<char> ok(tasks + 1, 1);
+  auto factor_columns = [&](const std::vector<int32_t>& columns, int32_t first, int32_t last, int32_t slot) {
+    std::vector<Mat3>& y = s.work[slot];
+    for (int32_t c = first; c < last; ++c)
+      if (!factor_column(values, columns[c], y, s)) {
+        for (Mat3& m : y) m.setZero();  // leave the workspace clean for the next factorisation
+        ok[slot] = 0;
+        return;
+      }
+  };
+  run(tasks, 1, [&](int32_t begin, int32_t end) {
+    for (int32_t t = begin; t < end; ++t) factor_columns(s.task_columns, s.task_start[t], s.task_start[t + 1], t);
+  });
+  for (int32_t t = 0; t < tasks; ++t)
+    if (!ok[t]) return false;
+  factor_columns(s.top_columns, 0, static_cast<int32_t>(s.top_columns.size()), tasks);
+  s.factorized = ok[tasks] != 0;
+  return s.factorized;
 }
 
 void solve_block_ldlt(const BlockLdlt& s, const double* b, double* x) {

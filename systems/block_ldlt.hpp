@@ -8,8 +8,12 @@
 // (approximate minimum degree on the vertex graph), the elimination tree and every row pattern are computed
 // once per structure. L is unit block-lower-triangular, D block diagonal with 3x3 SPD blocks, stored inverted.
 //
-// Serial on purpose: the result is bit-identical whatever the thread count.
+// Parallel over disjoint subtrees of the elimination tree (a column depends only on its descendants), then
+// the columns above them in order. Every column is computed by the same arithmetic whichever task runs it,
+// so the factor is bit-identical at any thread count.
 #pragma once
+
+#include "systems/parallel.hpp"
 
 #include <Eigen/Core>
 
@@ -32,17 +36,26 @@ struct BlockLdlt {
   std::vector<int32_t> l_start, l_row;
   std::vector<int32_t> pattern_start, pattern_column, pattern_slot;
   std::vector<Mat3> l_blocks, d_inverse;
-  std::vector<Mat3> work;              // scattered column, zero outside a factorisation
+  // Tasks: task t factors the columns task_columns[task_start[t] .. task_start[t+1]) (whole subtrees,
+  // increasing order); the columns of `top_columns` follow serially. One workspace per task.
+  std::vector<int32_t> task_start, task_columns, top_columns;
+  std::vector<std::vector<Mat3>> work;  // scattered column per task (+1 for the top), zero between uses
   bool factorized = false;
+};
+
+struct BlockLdltParams {
+  int32_t min_parallel_blocks = 400;  // below this many block rows the factorisation stays one task
+  int32_t tasks = 8;                  // subtrees to aim for (a few per core, for balance)
 };
 
 // Symbolic analysis. `keys` are the (row, col) block positions of the full symmetric pattern, every
 // diagonal block (i, i) included, each pair once; values later come in the same order.
-void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>>& keys, BlockLdlt& out);
+void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>>& keys, const BlockLdltParams& params,
+                        BlockLdlt& out);
 
 // Numeric factorisation of the matrix whose block at keys[b] is values[b]. Returns false (and leaves the
 // factor unusable) when a pivot block is not positive definite or not finite.
-bool factorize_block_ldlt(const std::vector<Mat3>& values, BlockLdlt& ldlt);
+bool factorize_block_ldlt(const std::vector<Mat3>& values, const RangeRunner& run, BlockLdlt& ldlt);
 
 // x = A⁻¹ b for vectors of 3n entries (vertex-major). `x` may alias `b`.
 void solve_block_ldlt(const BlockLdlt& ldlt, const double* b, double* x);

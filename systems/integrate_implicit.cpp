@@ -154,7 +154,7 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
         if (i >= 0 && j >= 0) s.base_values[s.block_of(i, j)] += Mat3::Identity() * kscale * st.w[a] * st.w[b];
       }
 
-  analyze_block_ldlt(s.free_count, s.block_key, s.ldlt);
+  analyze_block_ldlt(s.free_count, s.block_key, BlockLdltParams{}, s.ldlt);
   s.block_values.resize(s.block_key.size());
   s.analysed = true;
   s.tri_k.resize(nt);
@@ -261,7 +261,7 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
       }
 
   s.stats.factorizations += 1;
-  if (!factorize_block_ldlt(values, s.ldlt)) {
+  if (!factorize_block_ldlt(values, params.run, s.ldlt)) {
     s.stats.failures += 1;
     return false;
   }

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <random>
+#include <thread>
 #include <tuple>
 
 using namespace pt;
@@ -84,9 +85,9 @@ TEST(BlockLdlt, SolvesLikeADenseCholesky) {
     const int32_t n = w * h + 1;
     const Keys keys = grid_pattern(w, h, extra, rng);
     BlockLdlt ldlt;
-    analyze_block_ldlt(n, keys, ldlt);
+    analyze_block_ldlt(n, keys, BlockLdltParams{}, ldlt);
     const std::vector<Mat3> values = random_values(keys, n, 0.5, rng);
-    ASSERT_TRUE(factorize_block_ldlt(values, ldlt));
+    ASSERT_TRUE(factorize_block_ldlt(values, run_serial, ldlt));
     const Eigen::MatrixXd a = dense(keys, values, n);
     const Eigen::VectorXd b = Eigen::VectorXd::Random(3 * n);
     Eigen::VectorXd x(3 * n);
@@ -102,10 +103,10 @@ TEST(BlockLdlt, RefactorsTheSameStructureWithNewValues) {
   const int32_t n = 8 * 8 + 1;
   const Keys keys = grid_pattern(8, 8, 4, rng);
   BlockLdlt ldlt;
-  analyze_block_ldlt(n, keys, ldlt);
+  analyze_block_ldlt(n, keys, BlockLdltParams{}, ldlt);
   for (int round = 0; round < 3; ++round) {
     const std::vector<Mat3> values = random_values(keys, n, 0.1 + round, rng);
-    ASSERT_TRUE(factorize_block_ldlt(values, ldlt));
+    ASSERT_TRUE(factorize_block_ldlt(values, run_serial, ldlt));
     const Eigen::VectorXd b = Eigen::VectorXd::Random(3 * n);
     Eigen::VectorXd x = b;
     solve_block_ldlt(ldlt, x.data(), x.data());  // in place
@@ -118,16 +119,16 @@ TEST(BlockLdlt, RefusesAnIndefiniteMatrixAndRecovers) {
   const int32_t n = 5 * 5 + 1;
   const Keys keys = grid_pattern(5, 5, 0, rng);
   BlockLdlt ldlt;
-  analyze_block_ldlt(n, keys, ldlt);
+  analyze_block_ldlt(n, keys, BlockLdltParams{}, ldlt);
   std::vector<Mat3> values = random_values(keys, n, 0.5, rng);
   const auto diag = std::lower_bound(keys.begin(), keys.end(), std::make_pair(12, 12)) - keys.begin();
   const Mat3 kept = values[diag];
   values[diag](1, 1) = -100;  // one negative pivot direction
-  EXPECT_FALSE(factorize_block_ldlt(values, ldlt));
+  EXPECT_FALSE(factorize_block_ldlt(values, run_serial, ldlt));
   values[diag](1, 1) = std::nan("");
-  EXPECT_FALSE(factorize_block_ldlt(values, ldlt));
+  EXPECT_FALSE(factorize_block_ldlt(values, run_serial, ldlt));
   values[diag] = kept;  // the workspace is clean again after a refusal
-  ASSERT_TRUE(factorize_block_ldlt(values, ldlt));
+  ASSERT_TRUE(factorize_block_ldlt(values, run_serial, ldlt));
   const Eigen::VectorXd b = Eigen::VectorXd::Random(3 * n);
   Eigen::VectorXd x(3 * n);
   solve_block_ldlt(ldlt, b.data(), x.data());
@@ -141,7 +142,34 @@ TEST(BlockLdlt, MinimumDegreeOrderingKeepsGridFillNearNLogN) {
   const int32_t w = 40, n = w * w + 1;
   const Keys keys = grid_pattern(w, w, 0, rng);
   BlockLdlt ldlt;
-  analyze_block_ldlt(n, keys, ldlt);
+  analyze_block_ldlt(n, keys, BlockLdltParams{}, ldlt);
   EXPECT_LT(block_ldlt_fill(ldlt), 40000) << "fill " << block_ldlt_fill(ldlt);
   EXPECT_GT(block_ldlt_fill(ldlt), static_cast<int64_t>(keys.size() - n) / 2 - 1);  // at least A's own lower part
+}
+
+TEST(BlockLdlt, SubtreeTasksGiveTheBitIdenticalFactorInAnyOrder) {
+  // Split into subtrees (threshold lowered so a 30x20 grid splits), run the tasks in reverse order and on
+  // real threads: every column must come out bit-identical to the one-task factorisation.
+  std::mt19937 rng(13);
+  const int32_t n = 30 * 20 + 1;
+  const Keys keys = grid_pattern(30, 20, 10, rng);
+  const std::vector<Mat3> values = random_values(keys, n, 0.5, rng);
+  BlockLdlt serial, split;
+  analyze_block_ldlt(n, keys, BlockLdltParams{.min_parallel_blocks = 1 << 30, .tasks = 1}, serial);
+  analyze_block_ldlt(n, keys, BlockLdltParams{.min_parallel_blocks = 100, .tasks = 6}, split);
+  ASSERT_EQ(serial.task_start.size(), 2u);
+  ASSERT_GT(split.task_start.size(), 3u) << "the tree was not split";
+  EXPECT_LT(split.top_columns.size(), static_cast<size_t>(n) / 4) << "the top chain is a separator, not the grid";
+  ASSERT_TRUE(factorize_block_ldlt(values, run_serial, serial));
+  const RangeRunner reversed_threads = [](int32_t count, int32_t, const RangeTask& task) {
+    std::vector<std::thread> threads;
+    for (int32_t t = count - 1; t >= 0; --t) threads.emplace_back([&task, t] { task(t, t + 1); });
+    for (std::thread& th : threads) th.join();
+  };
+  for (int round = 0; round < 2; ++round) {
+    ASSERT_TRUE(factorize_block_ldlt(values, reversed_threads, split));
+    ASSERT_EQ(serial.l_blocks.size(), split.l_blocks.size());
+    for (size_t p = 0; p < serial.l_blocks.size(); ++p) ASSERT_EQ(serial.l_blocks[p], split.l_blocks[p]) << p;
+    for (int32_t k = 0; k < n; ++k) ASSERT_EQ(serial.d_inverse[k], split.d_inverse[k]) << k;
+  }
 }
