@@ -47,20 +47,32 @@ void build_topology(const std::vector<Tri>& tri, int32_t vertex_count, Topology&
     for (int32_t t = 0; t < nt; ++t)
       for (int32_t c : tri[t]) topo.vt_tri[fill[c]++] = t;
   }
-  // Half-edges sorted by undirected key pair up neighbours.
+  // Half-edges in (lo, hi, t, i) order pair up neighbours. Bucketed by their lower vertex (counting sort,
+  // filled in (t, i) order) and each short bucket sorted by hi: the order of one global sort, in linear time
+  // but for the buckets — this runs after every cut (remeshing), so it is on the tearing path.
   struct HalfEdge {
     int32_t lo, hi, t, i;
   };
-  std::vector<HalfEdge> he;
-  he.reserve(3 * nt);
-  for (int32_t t = 0; t < nt; ++t)
-    for (int32_t i = 0; i < 3; ++i) {
-      const int32_t a = tri[t][i], b = tri[t][(i + 1) % 3];
-      he.push_back({std::min(a, b), std::max(a, b), t, i});
+  std::vector<int32_t> bucket(vertex_count + 1, 0);
+  for (const Tri& t : tri)
+    for (int32_t i = 0; i < 3; ++i) ++bucket[std::min(t[i], t[(i + 1) % 3]) + 1];
+  for (int32_t v = 0; v < vertex_count; ++v) bucket[v + 1] += bucket[v];
+  std::vector<HalfEdge> he(3 * static_cast<size_t>(nt));
+  {
+    std::vector<int32_t> next(bucket.begin(), bucket.end() - 1);
+    for (int32_t t = 0; t < nt; ++t)
+      for (int32_t i = 0; i < 3; ++i) {
+        const int32_t a = tri[t][i], b = tri[t][(i + 1) % 3];
+        he[next[std::min(a, b)]++] = {std::min(a, b), std::max(a, b), t, i};
+      }
+  }
+  for (int32_t v = 0; v < vertex_count; ++v)  // insertion sort, stable: equal hi keep their (t, i) order
+    for (int32_t k = bucket[v] + 1; k < bucket[v + 1]; ++k) {
+      const HalfEdge e = he[k];
+      int32_t j = k;
+      for (; j > bucket[v] && he[j - 1].hi > e.hi; --j) he[j] = he[j - 1];
+      he[j] = e;
     }
-  std::sort(he.begin(), he.end(), [](const HalfEdge& x, const HalfEdge& y) {
-    return std::tie(x.lo, x.hi, x.t, x.i) < std::tie(y.lo, y.hi, y.t, y.i);
-  });
   topo.neighbor.assign(nt, {-1, -1, -1});
   topo.hinges.clear();
   for (size_t k = 0; k < he.size();) {
@@ -79,10 +91,7 @@ void build_topology(const std::vector<Tri>& tri, int32_t vertex_count, Topology&
     }
     k = m;  // edges shared by more than two triangles stay unpaired; check_mesh_invariants reports them
   }
-  std::sort(topo.hinges.begin(), topo.hinges.end(), [](const Hinge& x, const Hinge& y) {
-    return std::make_pair(std::min(x.v[0], x.v[1]), std::max(x.v[0], x.v[1])) <
-           std::make_pair(std::min(y.v[0], y.v[1]), std::max(y.v[0], y.v[1]));
-  });
+  // topo.hinges come out sorted by (min(v0, v1), max(v0, v1)): the half-edges were in (lo, hi) order.
   topo.boundary_next.assign(vertex_count, -1);
   topo.boundary_prev.assign(vertex_count, -1);
   for (int32_t t = 0; t < nt; ++t)
