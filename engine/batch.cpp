@@ -119,6 +119,9 @@ BatchResult run_batch(const Scenario& base, const BatchOptions& options,
   result.outcomes.resize(options.sheets);
   std::vector<TimingReport> reports(options.sheets);
   std::vector<size_t> bytes(options.sheets, 0);
+  // Triangles processed per sheet (sum over its frames): written by the sheet's task only, merged below.
+  // Adding into result.throughput from the tasks raced between workers (TSan, issue 9).
+  std::vector<double> triangles(options.sheets, 0.0);
   std::atomic<int32_t> done{0};
 
   const auto t0 = std::chrono::steady_clock::now();
@@ -152,8 +155,7 @@ BatchResult run_batch(const Scenario& base, const BatchOptions& options,
         out.hash = sim.state_hash();
         reports[i] = sim.timings();
         bytes[i] = sheet_bytes(sh);
-        for (const FrameStats& fs : sim.frame_stats())
-          for (size_t k = 0; k < 11; ++k) result.throughput[k].triangles += fs.triangles;
+        for (const FrameStats& fs : sim.frame_stats()) triangles[i] += fs.triangles;
       } catch (const std::exception& e) {
         out.status = std::string("error: ") + e.what();
       }
@@ -174,6 +176,7 @@ BatchResult run_batch(const Scenario& base, const BatchOptions& options,
       result.systems[k].max = std::max(result.systems[k].max, s.max);
       result.throughput[k].calls += s.count;
       result.throughput[k].total_ms += s.sum;
+      result.throughput[k].triangles += triangles[i];
     }
     sheet_frames += reports[i].frame.count;
     total_bytes += bytes[i];
