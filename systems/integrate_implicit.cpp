@@ -2,7 +2,6 @@
 
 #include "systems/block_ldlt.hpp"
 
-
 #include <algorithm>
 #include <cmath>
 
