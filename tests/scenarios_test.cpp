@@ -4,17 +4,37 @@
 // Three of the paper's claims are NOT met by the engine yet and their tests are disabled
 // (run them with --gtest_also_run_disabled_tests): the symmetric pull stays within 1% of the path
 // length from the mediator, the asymmetric pull keeps |PA| − |PB| within 3% of |AB|, and the zigzag of
-// Fig. 16 turns at least three times. The engine's
-// tears start at the right point and run into the material along the mediator's side, but drift by
-// 8–37% of their length on the coarse meshes (5–24 mm over 60–69 mm, four meshes), and the hyperbola
-// error is 30% of |AB| (11% with twice the step cap); see the issue notes.
+// Fig. 16 turns at least three times in step with the hands. The tears start at the right point and run
+// into the material on the mediator's side, but the direction of each step is off by typically 0.1–0.3
+// rad (at times 0.5–1.5: the eq. 4 split flips by ~90°; φ is 2.9–3.1 rad at the tips, so Er is a small
+// cos(φ/2) of large forces), and O'Keefe's paths are only neutrally stable (a tip
+// pushed off the mediator follows another hyperbola), so the errors add up. Measured over 16 meshes
+// (mesh_seed 0–15, rotation 17°·seed; DISABLED_Issue3MeasurementsOverSixteenMeshes prints them):
+// mediator error 8–69% of the length (mean 31%), hyperbola error 7–56% of |AB| (mean 27%, the same at
+// twice the cap: the steps are mostly min_step long), zigzag 0–11 direction changes (noise: the tear's
+// growth per hand phase does not alternate with the hands), 2–8 tears in Fig. 14 where the paper has 1.
+// What was tried and measured (same physics build, 8 or 16 meshes, mean mediator / hyperbola error):
+//  - forces gathered on circles of radius 10–15 mm or half the distance to the nearest finger around the
+//    tip (stress recovered from the corner forces, eq. 5 per point, 1–5 circles): 19–27% / 19–22%, but
+//    1.2–2.4x the spurious tears;
+//  - 1200 triangles instead of 300: 9–58% on the four meshes of the test (12–40% with the circles);
+//  - tension-field stress (compressive part dropped): 30% / 29%, spurious tears 4.3 → 2.9 in Fig. 14,
+//    but Fig. 12's junction start no longer tears;
+//  - restarting eq. 4 from six planes and keeping the split of largest Er: 35% on the four meshes of the
+//    test (20% without);
+//  - turn cap 0.25–0.5 rad, snapping at 3–10% of an edge, no eq. 4 iteration: no consistent change;
+//  - relaxing after each cut for 10–30 substeps, or quasi-statically (3 substeps of 10–100x dt):
+//    24–32% / 22–30%;
+//  - Fig. 14 with the fingers only lifted (no spreading): 20–54% on four meshes.
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "systems/topology.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <numbers>
 
@@ -166,6 +186,7 @@ TEST(Scenarios, DISABLED_AsymmetricPullFollowsTheHyperbola) {
   };
   const double coarse = hyperbola_error(base.material.max_step * 2);
   const double fine = hyperbola_error(base.material.max_step);
+  std::printf("hyperbola error: %.1f%% of |AB| at the step cap, %.1f%% at twice the cap\n", 100 * fine, 100 * coarse);
   EXPECT_LE(fine, 0.03);
   EXPECT_LT(fine, coarse);
 }
@@ -216,13 +237,75 @@ TEST(Scenarios, BranchingGivesTearsWithAParent) {
   EXPECT_GE(with_parent, 1);
 }
 
-// Fig. 16 (bottom): rotating the hands alternately zigzags the tear. Not met yet: the main tear turns
-// back and forth, but not in step with the hands (1 change beyond 0.2 rad measured, 3 wanted).
+// Fig. 16 (bottom): rotating the hands alternately zigzags the tear. Not met yet: 1 change beyond 0.2 rad
+// on this mesh, 0–11 on 16 meshes, and the direction of the tear's growth during each hand phase does not
+// alternate with the hands: the count measures the direction noise, not the hands.
 TEST(Scenarios, DISABLED_ZigzagHasThreeDirectionChanges) {
   const Scenario s = load_scenario(scenario_path("fig16-zigzag.json"));
   ScenarioRun r = run_scenario(s);
   ASSERT_FALSE(r.sheet().tears.empty());
-  EXPECT_GE(direction_changes(r.sheet().tears[0].tips, 0.2), 3);
+  const int changes = direction_changes(r.sheet().tears[0].tips, 0.2);
+  std::printf("zigzag: %d direction changes beyond 0.2 rad\n", changes);
+  EXPECT_GE(changes, 3);
+}
+
+// Issue 3's measuring harness: the three path claims above over 16 meshes (mesh_seed 0–15, rotated by
+// 17°·seed), printed as distributions, no assertions (~1 min). Compare engine changes with it, not with
+// one mesh: every path is chaotic in the mesh and in the last bit of the physics.
+//   build-tear/bin/scenarios_test --gtest_also_run_disabled_tests --gtest_filter='*Issue3Measurements*'
+TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
+  const int meshes = 16;
+  std::vector<double> mediator, fig14_tears, hyperbola, hyperbola_2x, zigzag, fig16_tears;
+  const Scenario fig14 = load_scenario(scenario_path("fig14-straight.json"));
+  const Scenario fig15 = load_scenario(scenario_path("fig15-curved.json"));
+  const Scenario fig16 = load_scenario(scenario_path("fig16-zigzag.json"));
+  for (int i = 0; i < meshes; ++i) {
+    auto remeshed = [&](Scenario s) {
+      s.mesh_seed = static_cast<uint64_t>(i);
+      s.mesh_rotation_deg = 17.0 * i;
+      return s;
+    };
+    {
+      const Vec2 a = finger_uv(fig14, "A"), b = finger_uv(fig14, "B"), axis = (b - a).normalized(), mid = 0.5 * (a + b);
+      ScenarioRun r = run_scenario(remeshed(fig14));
+      ASSERT_FALSE(r.sheet().tears.empty());
+      double worst = 0;
+      for (const Vec2& p : r.sheet().tears[0].tips) worst = std::max(worst, std::abs((p - mid).dot(axis)));
+      mediator.push_back(100 * worst / path_length(r.sheet().tears[0].tips));
+      fig14_tears.push_back(static_cast<double>(r.sheet().tears.size()));
+    }
+    for (const double cap : {1.0, 2.0}) {
+      Scenario s = remeshed(fig15);
+      s.material.max_step *= cap;
+      const Vec2 a = finger_uv(s, "A"), b = finger_uv(s, "B");
+      ScenarioRun r = run_scenario(s);
+      ASSERT_FALSE(r.sheet().tears.empty());
+      const std::vector<Vec2>& tips = r.sheet().tears[0].tips;
+      const double d0 = (tips[0] - a).norm() - (tips[0] - b).norm();
+      double worst = 0;
+      for (const Vec2& p : tips) worst = std::max(worst, std::abs((p - a).norm() - (p - b).norm() - d0));
+      (cap == 1.0 ? hyperbola : hyperbola_2x).push_back(100 * worst / (a - b).norm());
+    }
+    {
+      ScenarioRun r = run_scenario(remeshed(fig16));
+      ASSERT_FALSE(r.sheet().tears.empty());
+      zigzag.push_back(direction_changes(r.sheet().tears[0].tips, 0.2));
+      fig16_tears.push_back(static_cast<double>(r.sheet().tears.size()));
+    }
+  }
+  auto print = [](const char* what, std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    double mean = 0;
+    for (double x : v) mean += x / v.size();
+    std::printf("%-34s mean %5.1f  min %5.1f  median %5.1f  max %5.1f\n", what, mean, v.front(), v[v.size() / 2],
+                v.back());
+  };
+  print("Fig. 14 mediator error, % length", mediator);
+  print("Fig. 14 tears", fig14_tears);
+  print("Fig. 15 hyperbola error, % |AB|", hyperbola);
+  print("Fig. 15 same, twice the step cap", hyperbola_2x);
+  print("Fig. 16 direction changes > 0.2", zigzag);
+  print("Fig. 16 tears", fig16_tears);
 }
 
 // A sheet torn in two: two pieces that both keep falling and swinging.
