@@ -25,6 +25,7 @@
 //  - turn cap 0.25–0.5 rad, snapping at 3–10% of an edge, no eq. 4 iteration: no consistent change;
 //  - relaxing after each cut for 10–30 substeps, or quasi-statically (3 substeps of 10–100x dt):
 //    24–32% / 22–30%;
+//  - a waiting tip steps along the Er-weighted mean of its directions since its last step: 24% / 25%;
 //  - Fig. 14 with the fingers only lifted (no spreading): 20–54% on four meshes.
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
