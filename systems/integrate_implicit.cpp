@@ -41,6 +41,10 @@ struct ImplicitSolver {
 
   // Scratch reused every substep.
   std::vector<std::array<Mat3, 6>> tri_k;
+  std::vector<double> tri_energy;                  // membrane energy of each triangle at the start state
+  std::vector<std::array<double, 2>> tri_check;    // energy check, per triangle: excess, v⁺ᵀ K_t v⁺
+  int32_t brake = 0;                               // spin brake level (index of kBrakeKappa) ...
+  int32_t braked_left = 0;                         // ... kept for this many more substeps
   Eigen::VectorXd rhs, solution;
   std::vector<Vec3> velocity_next;
   ImplicitStats stats;
@@ -157,9 +161,75 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
   s.block_values.resize(s.block_key.size());
   s.analysed = true;
   s.tri_k.resize(nt);
+  s.tri_energy.resize(nt);
+  s.tri_check.resize(nt);
   s.rhs.resize(n);
   s.solution.resize(n);
   s.stats.analyses += 1;
+}
+
+// Spin brake: κ of the in-plane stiffness by level (0: the exact, stress-dependent κ), and the substeps a
+// level is kept after a step needed it.
+constexpr int kBrakeLevels = 4;
+constexpr double kBrakeKappa[kBrakeLevels] = {0, 1, 4, 16};
+constexpr int32_t kBrakeSubsteps = 10;
+
+// The step solved a linear model: membrane energy W(x) − h f·v⁺ + ½ h² v⁺ᵀ K v⁺ (exact for bending and
+// gravity, which are quadratic and linear). Backward Euler on that model dissipates
+//   D = h α ‖v⁺‖²_M + ½ ‖v⁺ − v‖²_M + (h β + ½ h²) ‖v⁺‖²_K
+// (mass terms over free vertices; the held vertices' work is the same for model and truth). The true
+// energy exceeds the model's by Σ_t [W_t(x + h v⁺) − model_t] — the stretch of rotations taken linearly —
+// so the total energy cannot have grown (beyond the held vertices' work) when that excess ≤ D.
+// Per-triangle terms in parallel (each writes its own slot), summed serially in triangle order.
+bool energy_bounded(const Sheet& sheet, ImplicitSolver& s, const ImplicitParams& params, double kscale,
+                    const MembraneParams& mp) {
+  const double h = params.dt;
+  const Vertices& V = sheet.verts;
+  const Triangles& T = sheet.tris;
+  const std::vector<Vec3>& vn = s.velocity_next;
+  const int32_t nv = V.size(), nt = T.size();
+  double mass_term = 0, model_k = 0, excess = 0, energy = 0;
+  for (int32_t v = 0; v < nv; ++v) {
+    if (s.free_index[v] < 0) continue;
+    mass_term += V.mass[v] * (h * s.alpha * vn[v].squaredNorm() + 0.5 * (vn[v] - V.v[v]).squaredNorm());
+  }
+  params.run(nt, params.grain, [&](int32_t begin, int32_t end) {
+    for (int32_t t = begin; t < end; ++t) {
+      const Tri& c = T.tri[t];
+      double quad = 0;  // v⁺ᵀ K_t v⁺ (K with the (h² + hβ) folded in)
+      for (int k = 0; k < 6; ++k) {
+        const int a = kPairA[k], b = kPairB[k];
+        const double q = vn[c[a]].dot(s.tri_k[t][k] * vn[c[b]]);
+        quad += a == b ? q : 2 * q;
+      }
+      quad /= kscale;
+      double work = 0;
+      for (int a = 0; a < 3; ++a) work += T.corner_force[t][a].dot(vn[c[a]]);
+      Vec3 xp[3];
+      for (int a = 0; a < 3; ++a) xp[a] = V.x[c[a]] + h * vn[c[a]];
+      Mat32 Ds;
+      Ds.col(0) = xp[1] - xp[0];
+      Ds.col(1) = xp[2] - xp[0];
+      const Mat32 F = Ds * T.rest_inv[t];
+      const Mat32 R = polar_rotation(F);
+      const double tr = (R.transpose() * F).trace() - 2;
+      const double w = mp.thickness * T.rest_area[t] * (mp.mu * (F - R).squaredNorm() + 0.5 * mp.lambda * tr * tr);
+      s.tri_check[t] = {w - (s.tri_energy[t] - h * work + 0.5 * h * h * quad), quad};
+    }
+  });
+  for (int32_t t = 0; t < nt; ++t) {
+    excess += s.tri_check[t][0];
+    model_k += s.tri_check[t][1];
+    energy += s.tri_energy[t];
+  }
+  double bend = 0;
+  for (const BendingStencil& st : s.stencils) {
+    Vec3 d = Vec3::Zero();
+    for (int a = 0; a < 4; ++a) d += st.w[a] * vn[st.v[a]];
+    bend += d.squaredNorm();
+  }
+  const double dissipated = mass_term + (h * s.beta + 0.5 * h * h) * (model_k + bend);
+  return excess <= dissipated + 1e-10 * energy;
 }
 
 }  // namespace
@@ -187,91 +257,124 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   vnext.assign(nv, Vec3::Zero());
   for (size_t k = 0; k < held.size(); ++k) vnext[held[k]] = (held_target[k] - V.x[held[k]]) / h;
 
-  // Per triangle (parallel, each writes its own slots): corotated forces of membrane_forces and the
-  // in-plane stiffness K_ab = e A [2μ (g_a·g_b) R Rᵀ + λ (R g_a)(R g_b)ᵀ] with R frozen.
-  params.run(nt, params.grain, [&](int32_t begin, int32_t end) {
-    compute_membrane_forces(V.x, T.tri, T.rest_inv, T.rest_area, mp, begin, end, T.corner_force);
-    for (int32_t t = begin; t < end; ++t) {
-      const Mat32 F = deformation_gradient(V.x, T.tri[t], T.rest_inv[t]);
-      const Mat32 R = polar_rotation(F);
-      const Mat2& Dinv = T.rest_inv[t];
-      Vec2 g[3];
-      g[1] = Dinv.row(0).transpose();
-      g[2] = Dinv.row(1).transpose();
-      g[0] = -(g[1] + g[2]);
-      const double ea = kscale * mp.thickness * T.rest_area[t];  // the (h² + hβ) of the system folded in
-      const Mat3 in_plane = R * R.transpose();
-      // Geometric (tension) stiffness for out-of-plane motion: g_aᵀ Σ g_b (I − R Rᵀ) with Σ the stress
-      // in the triangle's frame, clamped to its tensile part (paper under compression buckles freely).
-      // Without it a finger lifting a taut sheet would leave its neighbours behind for a substep and
-      // pitch a tent of spurious stretch.
-      Mat2 strain = R.transpose() * F;
-      strain = 0.5 * (strain + strain.transpose()) - Mat2::Identity();
-      const Mat2 stress = 2 * mp.mu * strain + mp.lambda * strain.trace() * Mat2::Identity();
-      const Mat2 tension = tensile_part(stress);
-      Vec3 rg[3];
-      for (int a = 0; a < 3; ++a) rg[a] = R * g[a];
-      // 2μ(g_a·g_b) RRᵀ + λ (R g_a)(R g_b)ᵀ + (g_aᵀ Σ⁺ g_b)(I − RRᵀ), with I − RRᵀ expanded.
-      for (int k = 0; k < 6; ++k) {
-        const int a = kPairA[k], b = kPairB[k];
-        const double geometric = g[a].dot(tension * g[b]);
-        Mat3 block = (2 * mp.mu * g[a].dot(g[b]) - geometric) * in_plane;
-        block.noalias() += mp.lambda * rg[a] * rg[b].transpose();
-        block.diagonal().array() += geometric;
-        s.tri_k[t][k] = ea * block;
+  // Per triangle (parallel, each writes its own slots): corotated forces of membrane_forces, the energy
+  // and the stiffness with R frozen (see the header): in plane
+  //   K_ab = e A [(1 + κ) μ (g_a·g_b) R Rᵀ + (1 − κ) μ (R g_b)(R g_a)ᵀ + λ (R g_a)(R g_b)ᵀ],
+  // κ the exact spin stiffness of the corotated energy (projected ≥ 0), or the brake's κ.
+  auto build_stiffness = [&](int brake, bool with_forces) {
+    params.run(nt, params.grain, [&](int32_t begin, int32_t end) {
+      if (with_forces) compute_membrane_forces(V.x, T.tri, T.rest_inv, T.rest_area, mp, begin, end, T.corner_force);
+      for (int32_t t = begin; t < end; ++t) {
+        const Mat32 F = deformation_gradient(V.x, T.tri[t], T.rest_inv[t]);
+        const Mat32 R = polar_rotation(F);
+        const Mat2& Dinv = T.rest_inv[t];
+        Vec2 g[3];
+        g[1] = Dinv.row(0).transpose();
+        g[2] = Dinv.row(1).transpose();
+        g[0] = -(g[1] + g[2]);
+        const double ea = kscale * mp.thickness * T.rest_area[t];  // the (h² + hβ) of the system folded in
+        const Mat3 in_plane = R * R.transpose();
+        // Geometric (tension) stiffness for out-of-plane motion: g_aᵀ Σ g_b (I − R Rᵀ) with Σ the stress
+        // in the triangle's frame, clamped to its tensile part (paper under compression buckles freely).
+        // Without it a finger lifting a taut sheet would leave its neighbours behind for a substep and
+        // pitch a tent of spurious stretch.
+        Mat2 strain = R.transpose() * F;
+        strain = 0.5 * (strain + strain.transpose()) - Mat2::Identity();
+        const Mat2 stress = 2 * mp.mu * strain + mp.lambda * strain.trace() * Mat2::Identity();
+        const Mat2 tension = tensile_part(stress);
+        const double i1 = strain.trace() + 2;  // σ₁ + σ₂
+        const double kappa =
+            brake > 0 ? kBrakeKappa[brake] : std::max(0.0, (mp.mu + mp.lambda) * (i1 - 2) / (mp.mu * i1));
+        if (with_forces) {
+          const double tr = strain.trace();
+          s.tri_energy[t] = mp.thickness * T.rest_area[t] * (mp.mu * (F - R).squaredNorm() + 0.5 * mp.lambda * tr * tr);
+        }
+        Vec3 rg[3];
+        for (int a = 0; a < 3; ++a) rg[a] = R * g[a];
+        // In-plane part + (g_aᵀ Σ⁺ g_b)(I − RRᵀ), with I − RRᵀ expanded.
+        for (int k = 0; k < 6; ++k) {
+          const int a = kPairA[k], b = kPairB[k];
+          const double geometric = g[a].dot(tension * g[b]);
+          Mat3 block = ((1 + kappa) * mp.mu * g[a].dot(g[b]) - geometric) * in_plane;
+          block.noalias() += mp.lambda * rg[a] * rg[b].transpose();
+          block.noalias() += ((1 - kappa) * mp.mu) * rg[b] * rg[a].transpose();
+          block.diagonal().array() += geometric;
+          s.tri_k[t][k] = ea * block;
+        }
       }
-    }
-  });
+    });
+  };
+  int brake = 0;
+  if (s.braked_left > 0) {
+    brake = s.brake;
+    s.braked_left -= 1;
+  }
+  build_stiffness(brake, true);
 
   // Forces on vertices in a fixed order (no atomics), then bending.
   gather_corner_forces(sheet.topo, T.tri, T.corner_force, 0, nv, V.force);
   add_bending_forces(V.x, s.stencils, V.force);
 
-  // Assemble the matrix values (serial, triangle order: deterministic) and the coupling to held vertices.
-  std::vector<Mat3>& values = s.block_values;
-  std::copy(s.base_values.begin(), s.base_values.end(), values.begin());
-  s.rhs.setZero();
-  for (int32_t v = 0; v < nv; ++v) {
-    const int32_t i = s.free_index[v];
-    if (i < 0) continue;
-    s.rhs.segment<3>(3 * i) = V.mass[v] * V.v[v] + h * (V.force[v] + V.mass[v] * params.gravity);
-  }
-  for (int32_t t = 0; t < nt; ++t) {
-    for (int k = 0; k < 6; ++k) {
-      const int a = kPairA[k], b = kPairB[k];
-      const Mat3& kab = s.tri_k[t][k];
-      const int32_t va = T.tri[t][a], vb = T.tri[t][b];
-      const int32_t ia = s.free_index[va], ib = s.free_index[vb];
-      const int32_t blk_ab = s.tri_block[t][3 * a + b];
-      if (blk_ab >= 0) values[blk_ab] += kab;
-      if (a != b) {
-        const int32_t blk_ba = s.tri_block[t][3 * b + a];
-        if (blk_ba >= 0) values[blk_ba] += kab.transpose();
-        if (ia >= 0 && ib < 0) s.rhs.segment<3>(3 * ia) -= kab * vnext[vb];
-        if (ib >= 0 && ia < 0) s.rhs.segment<3>(3 * ib) -= kab.transpose() * vnext[va];
+  // Assemble the matrix values (serial, triangle order: deterministic) and the coupling to held vertices,
+  // factorise, solve: vnext holds v⁺ of every vertex.
+  auto solve = [&]() -> bool {
+    std::vector<Mat3>& values = s.block_values;
+    std::copy(s.base_values.begin(), s.base_values.end(), values.begin());
+    s.rhs.setZero();
+    for (int32_t v = 0; v < nv; ++v) {
+      const int32_t i = s.free_index[v];
+      if (i < 0) continue;
+      s.rhs.segment<3>(3 * i) = V.mass[v] * V.v[v] + h * (V.force[v] + V.mass[v] * params.gravity);
+    }
+    for (int32_t t = 0; t < nt; ++t) {
+      for (int k = 0; k < 6; ++k) {
+        const int a = kPairA[k], b = kPairB[k];
+        const Mat3& kab = s.tri_k[t][k];
+        const int32_t va = T.tri[t][a], vb = T.tri[t][b];
+        const int32_t ia = s.free_index[va], ib = s.free_index[vb];
+        const int32_t blk_ab = s.tri_block[t][3 * a + b];
+        if (blk_ab >= 0) values[blk_ab] += kab;
+        if (a != b) {
+          const int32_t blk_ba = s.tri_block[t][3 * b + a];
+          if (blk_ba >= 0) values[blk_ba] += kab.transpose();
+          if (ia >= 0 && ib < 0) s.rhs.segment<3>(3 * ia) -= kab * vnext[vb];
+          if (ib >= 0 && ia < 0) s.rhs.segment<3>(3 * ib) -= kab.transpose() * vnext[va];
+        }
       }
     }
-  }
-  for (const BendingStencil& st : s.stencils)
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) {
-        const int32_t ia = s.free_index[st.v[a]], ib = s.free_index[st.v[b]];
-        if (ia >= 0 && ib < 0) s.rhs.segment<3>(3 * ia) -= kscale * st.w[a] * st.w[b] * vnext[st.v[b]];
-      }
+    for (const BendingStencil& st : s.stencils)
+      for (int a = 0; a < 4; ++a)
+        for (int b = 0; b < 4; ++b) {
+          const int32_t ia = s.free_index[st.v[a]], ib = s.free_index[st.v[b]];
+          if (ia >= 0 && ib < 0) s.rhs.segment<3>(3 * ia) -= kscale * st.w[a] * st.w[b] * vnext[st.v[b]];
+        }
 
-  s.stats.factorizations += 1;
-  if (!factorize_block_ldlt(values, params.run, s.ldlt)) {
-    s.stats.failures += 1;
-    return false;
-  }
-  solve_block_ldlt(s.ldlt, s.rhs.data(), s.solution.data());
-  if (!s.solution.allFinite()) {
-    s.stats.failures += 1;
-    return false;
-  }
-  for (int32_t v = 0; v < nv; ++v) {
-    const int32_t i = s.free_index[v];
-    if (i >= 0) vnext[v] = s.solution.segment<3>(3 * i);
+    s.stats.factorizations += 1;
+    if (!factorize_block_ldlt(values, params.run, s.ldlt)) {
+      s.stats.failures += 1;
+      return false;
+    }
+    solve_block_ldlt(s.ldlt, s.rhs.data(), s.solution.data());
+    if (!s.solution.allFinite()) {
+      s.stats.failures += 1;
+      return false;
+    }
+    for (int32_t v = 0; v < nv; ++v) {
+      const int32_t i = s.free_index[v];
+      if (i >= 0) vnext[v] = s.solution.segment<3>(3 * i);
+    }
+    return true;
+  };
+  if (!solve()) return false;
+  // The linearised step may rotate triangles far enough that the true membrane energy at x⁺ exceeds what
+  // the step dissipated: then redo it with a stronger spin brake, kept for the next kBrakeSubsteps.
+  while (brake < kBrakeLevels - 1 && !energy_bounded(sheet, s, params, kscale, mp)) {
+    brake += 1;
+    s.stats.brakes += 1;
+    s.brake = brake;
+    s.braked_left = kBrakeSubsteps;
+    build_stiffness(brake, false);
+    if (!solve()) return false;
   }
   for (int32_t v = 0; v < nv; ++v) {
     V.v[v] = vnext[v];
