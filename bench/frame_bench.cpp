@@ -79,6 +79,14 @@ void BM_MembraneForces(benchmark::State& state) {
 }
 BENCHMARK(BM_MembraneForces)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
+// The physics benchmarks hold every finger's vertex where the finger starts.
+void fingers_held_at_start(const Sheet& sheet, std::vector<int32_t>& held, std::vector<Vec3>& target) {
+  for (const Finger& f : sheet.fingers) {
+    held.push_back(f.vertex);
+    target.push_back(f.start);
+  }
+}
+
 // Physics only: 10 substeps of projective dynamics (one frame, "solver": "projective"), one core.
 void BM_PhysicsFrameProjective(benchmark::State& state) {
   Scenario s = bench::a4_scene(static_cast<int32_t>(state.range(0)), false);
@@ -89,10 +97,7 @@ void BM_PhysicsFrameProjective(benchmark::State& state) {
   ProjectiveSolverPtr solver;
   std::vector<int32_t> held;
   std::vector<Vec3> target;
-  for (const Finger& f : sheet.fingers) {
-    held.push_back(f.vertex);
-    target.push_back(f.start);
-  }
+  fingers_held_at_start(sheet, held, target);
   prepare_projective_solver(sheet, params, solver);
   for (auto _ : state) {
     for (int32_t k = 0; k < s.sim.substeps; ++k) integrate_substep(params, held, target, *solver, sheet);
@@ -111,10 +116,7 @@ void BM_PhysicsFrameImplicit(benchmark::State& state) {
   ImplicitSolverPtr solver;
   std::vector<int32_t> held;
   std::vector<Vec3> target;
-  for (const Finger& f : sheet.fingers) {
-    held.push_back(f.vertex);
-    target.push_back(f.start);
-  }
+  fingers_held_at_start(sheet, held, target);
   for (auto _ : state) {
     for (int32_t k = 0; k < s.sim.substeps; ++k) implicit_substep(params, held, target, solver, sheet);
   }
