@@ -51,6 +51,10 @@ void BM_Frame(benchmark::State& state) {
   state.counters["relaxation_ms"] = sum.relaxation / n;
   state.counters["frame_ms"] = sum.frame / n;
   state.counters["tears"] = static_cast<double>(sim.sheet().tears.size());
+  // Work of the implicit solver per frame (includes the frames of the warm-up before the timed loop: none).
+  const ImplicitStats solver = sim.solver_stats();
+  state.counters["factorizations"] = static_cast<double>(solver.factorizations) / n;
+  state.counters["analyses"] = static_cast<double>(solver.analyses) / n;
 }
 BENCHMARK(BM_Frame)
     ->ArgsProduct({{100, 1000, 10000}, {1, 2}})

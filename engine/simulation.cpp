@@ -485,6 +485,9 @@ const std::vector<FrameStats>& Simulation::frame_stats() const { return impl_->s
 const std::vector<TearEvent>& Simulation::events() const { return impl_->events; }
 const std::vector<std::string>& Simulation::invariant_violations() const { return impl_->violations; }
 int32_t Simulation::remesh_count() const { return impl_->remeshes; }
+ImplicitStats Simulation::solver_stats() const {
+  return impl_->implicit ? implicit_solver_stats(*impl_->implicit) : ImplicitStats{};
+}
 const std::vector<Candidate>& Simulation::candidates() const { return impl_->candidates; }
 int32_t Simulation::threads() const { return impl_->options.threads; }
 std::string Simulation::state_hash() const { return hash_sheet(impl_->sheet); }

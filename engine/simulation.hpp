@@ -7,6 +7,7 @@
 #include "systems/candidates.hpp"
 #include "systems/carving.hpp"
 #include "systems/fiber_field.hpp"
+#include "systems/integrate_implicit.hpp"
 
 #include <array>
 #include <cstdint>
@@ -100,6 +101,9 @@ class Simulation {
   // With EngineOptions::check_invariants: one line per remesh that broke a DESIGN §5.5 invariant.
   const std::vector<std::string>& invariant_violations() const;
   int32_t remesh_count() const;
+  // Counts of the default implicit integrator so far (all zero with the projective solver): symbolic
+  // analyses (after cuts or a change of the held set), numeric factorisations, spin-brake redos, failures.
+  ImplicitStats solver_stats() const;
   int32_t threads() const;
 
   // Hex digest (FNV-1a 64 over the bit patterns of x, v, rest, triangles, tears) of the current state.

@@ -35,6 +35,11 @@ struct ImplicitSolver {
   std::vector<Mat3> block_values;                  // the matrix, one 3x3 block per key
   std::vector<std::array<int32_t, 9>> tri_block;   // per triangle, corner pair (a, b) → block, −1 if not free
   std::vector<BendingStencil> stencils;
+  struct HeldCoupling {
+    int32_t row, held_vertex;
+    double weight;
+  };
+  std::vector<HeldCoupling> bending_held;          // rhs[row] −= weight · v⁺[held_vertex], in stencil order
   std::vector<Mat3> base_values;                   // M(1 + hα) + (h² + hβ) Q, per block
   BlockLdlt ldlt;
   bool analysed = false;
@@ -43,6 +48,12 @@ struct ImplicitSolver {
   std::vector<std::array<Mat3, 6>> tri_k;
   std::vector<double> tri_energy;                  // membrane energy of each triangle at the start state
   std::vector<std::array<double, 2>> tri_check;    // energy check, per triangle: excess, v⁺ᵀ K_t v⁺
+  // The energy check's frames at x⁺ = x + h v⁺ and the corners they were taken at: the next substep starts
+  // at x⁺ (bit for bit, for triangles without a held corner) and takes F and R from here instead of a second
+  // polar decomposition. A frame is used only when its corners still match the positions exactly.
+  std::vector<CorotatedFrame> next_frame;
+  std::vector<std::array<Vec3, 3>> next_corners;
+  bool next_valid = false;
   int32_t brake = 0;                               // spin brake level (index of kBrakeKappa) ...
   int32_t braked_left = 0;                         // ... kept for this many more substeps
   Eigen::VectorXd rhs, solution;
@@ -52,10 +63,12 @@ struct ImplicitSolver {
   std::vector<int32_t> row_start;                  // per free row I, its first key (keys sorted by row)
   std::vector<int32_t> pair_row, pair_column;      // scratch of the structure build
 
+  std::vector<int32_t> block_column;              // J of every key (a row's columns, searched by block_of)
+
   int32_t block_of(int32_t i, int32_t j) const {
-    const auto first = block_key.begin() + row_start[i], last = block_key.begin() + row_start[i + 1];
-    const auto it = std::lower_bound(first, last, std::make_pair(i, j));
-    return (it != last && *it == std::make_pair(i, j)) ? static_cast<int32_t>(it - block_key.begin()) : -1;
+    const auto first = block_column.begin() + row_start[i], last = block_column.begin() + row_start[i + 1];
+    const auto it = std::lower_bound(first, last, j);
+    return (it != last && *it == j) ? static_cast<int32_t>(it - block_column.begin()) : -1;
   }
 };
 
@@ -98,8 +111,9 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
 
   build_bending_stencils(V.rest, sheet.topo.hinges, bending_stiffness(sheet.material), s.stencils);
 
-  // Non-zero blocks: every pair of free vertices that share a triangle or a hinge. Bucketed by row, then
-  // each (short) row sorted: the keys come out sorted by (I, J) without a global sort.
+  // Non-zero blocks: every pair of free vertices that share a triangle or a hinge. Bucketed by row, each
+  // row's repeats dropped with a stamp per column, then the (short) unique row sorted: the keys come out
+  // sorted by (I, J) without a global sort.
   s.pair_row.clear();
   s.pair_column.clear();
   auto add_pair = [&](int32_t a, int32_t b) {
@@ -122,12 +136,22 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
     std::vector<int32_t> columns(s.pair_row.size()), next(start.begin(), start.end() - 1);
     for (size_t q = 0; q < s.pair_row.size(); ++q) columns[next[s.pair_row[q]]++] = s.pair_column[q];
     s.block_key.clear();
+    s.block_column.clear();
     s.row_start.assign(s.free_count + 1, 0);
+    std::vector<int32_t> stamp(s.free_count, -1);
     for (int32_t i = 0; i < s.free_count; ++i) {
-      const auto first = columns.begin() + start[i], last = columns.begin() + start[i + 1];
+      const auto first = columns.begin() + start[i];
+      auto last = first;
+      for (auto it = first; it != columns.begin() + start[i + 1]; ++it)
+        if (stamp[*it] != i) {
+          stamp[*it] = i;
+          *last++ = *it;
+        }
       std::sort(first, last);
-      for (auto it = first; it != last; ++it)
-        if (it == first || *it != *(it - 1)) s.block_key.emplace_back(i, *it);
+      for (auto it = first; it != last; ++it) {
+        s.block_key.emplace_back(i, *it);
+        s.block_column.push_back(*it);
+      }
       s.row_start[i + 1] = static_cast<int32_t>(s.block_key.size());
     }
   }
@@ -150,11 +174,13 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
     if (i < 0) continue;
     s.base_values[s.block_of(i, i)] += Mat3::Identity() * V.mass[v] * (1 + h * s.alpha);
   }
+  s.bending_held.clear();
   for (const BendingStencil& st : s.stencils)
     for (int a = 0; a < 4; ++a)
       for (int b = 0; b < 4; ++b) {
         const int32_t i = s.free_index[st.v[a]], j = s.free_index[st.v[b]];
         if (i >= 0 && j >= 0) s.base_values[s.block_of(i, j)] += Mat3::Identity() * kscale * st.w[a] * st.w[b];
+        if (i >= 0 && j < 0) s.bending_held.push_back({i, st.v[b], kscale * st.w[a] * st.w[b]});
       }
 
   analyze_block_ldlt(s.free_count, s.block_key, BlockLdltParams{}, s.ldlt);
@@ -163,6 +189,9 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
   s.tri_k.resize(nt);
   s.tri_energy.resize(nt);
   s.tri_check.resize(nt);
+  s.next_frame.resize(nt);
+  s.next_corners.resize(nt);
+  s.next_valid = false;
   s.rhs.resize(n);
   s.solution.resize(n);
   s.stats.analyses += 1;
@@ -205,18 +234,18 @@ bool energy_bounded(const Sheet& sheet, ImplicitSolver& s, const ImplicitParams&
       quad /= kscale;
       double work = 0;
       for (int a = 0; a < 3; ++a) work += T.corner_force[t][a].dot(vn[c[a]]);
-      Vec3 xp[3];
+      std::array<Vec3, 3>& xp = s.next_corners[t];
       for (int a = 0; a < 3; ++a) xp[a] = V.x[c[a]] + h * vn[c[a]];
-      Mat32 Ds;
-      Ds.col(0) = xp[1] - xp[0];
-      Ds.col(1) = xp[2] - xp[0];
-      const Mat32 F = Ds * T.rest_inv[t];
-      const Mat32 R = polar_rotation(F);
+      CorotatedFrame& frame = s.next_frame[t];
+      corotated_frame(xp[0], xp[1], xp[2], T.rest_inv[t], frame);
+      const Mat32& F = frame.F;
+      const Mat32& R = frame.R;
       const double tr = (R.transpose() * F).trace() - 2;
       const double w = mp.thickness * T.rest_area[t] * (mp.mu * (F - R).squaredNorm() + 0.5 * mp.lambda * tr * tr);
       s.tri_check[t] = {w - (s.tri_energy[t] - h * work + 0.5 * h * h * quad), quad};
     }
   });
+  s.next_valid = true;
   for (int32_t t = 0; t < nt; ++t) {
     excess += s.tri_check[t][0];
     model_k += s.tri_check[t][1];
@@ -263,10 +292,16 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   // κ the exact spin stiffness of the corotated energy (projected ≥ 0), or the brake's κ.
   auto build_stiffness = [&](int brake, bool with_forces) {
     params.run(nt, params.grain, [&](int32_t begin, int32_t end) {
-      if (with_forces) compute_membrane_forces(V.x, T.tri, T.rest_inv, T.rest_area, mp, begin, end, T.corner_force);
+      CorotatedFrame own;  // one polar decomposition per triangle for its forces, energy and stiffness
       for (int32_t t = begin; t < end; ++t) {
-        const Mat32 F = deformation_gradient(V.x, T.tri[t], T.rest_inv[t]);
-        const Mat32 R = polar_rotation(F);
+        const Tri& c = T.tri[t];
+        const std::array<Vec3, 3>& carried = s.next_corners[t];
+        const bool reuse = s.next_valid && carried[0] == V.x[c[0]] && carried[1] == V.x[c[1]] && carried[2] == V.x[c[2]];
+        if (!reuse) corotated_frame(V.x[c[0]], V.x[c[1]], V.x[c[2]], T.rest_inv[t], own);
+        const CorotatedFrame& frame = reuse ? s.next_frame[t] : own;
+        if (with_forces) corotated_corner_forces(frame, T.rest_inv[t], T.rest_area[t], mp, T.corner_force[t]);
+        const Mat32& F = frame.F;
+        const Mat32& R = frame.R;
         const Mat2& Dinv = T.rest_inv[t];
         Vec2 g[3];
         g[1] = Dinv.row(0).transpose();
@@ -342,12 +377,8 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
         }
       }
     }
-    for (const BendingStencil& st : s.stencils)
-      for (int a = 0; a < 4; ++a)
-        for (int b = 0; b < 4; ++b) {
-          const int32_t ia = s.free_index[st.v[a]], ib = s.free_index[st.v[b]];
-          if (ia >= 0 && ib < 0) s.rhs.segment<3>(3 * ia) -= kscale * st.w[a] * st.w[b] * vnext[st.v[b]];
-        }
+    for (const ImplicitSolver::HeldCoupling& c : s.bending_held)
+      s.rhs.segment<3>(3 * c.row) -= c.weight * vnext[c.held_vertex];
 
     s.stats.factorizations += 1;
     if (!factorize_block_ldlt(values, params.run, s.ldlt)) {

@@ -95,7 +95,82 @@ Eigen::Matrix<double, 3, 2> polar_rotation(const Eigen::Matrix<double, 3, 2>& F)
 }
 
 // The kernel: plain scalar code on the three columns so the compiler keeps everything in registers
-// (no Eigen temporaries, no allocation). ~40 multiplies, two sqrt, one division per triangle.
+// (no Eigen temporaries, no allocation). ~40 multiplies, two sqrt, one division per triangle. Split in two
+// inline halves (F and R; then the forces) so the implicit integrator can share one polar decomposition
+// between forces, energy and stiffness with bit-identical results.
+namespace {
+
+struct CorotatedScalars {
+  double ax, ay, az, bx, by, bz;        // F, columns a and b
+  double rax, ray, raz, rbx, rby, rbz;  // R, columns a and b
+  double trS;                           // tr(RᵀF) = σ₁ + σ₂
+};
+
+inline CorotatedScalars corotated_scalars(const double* x0, const double* x1, const double* x2, const Mat2& B) {
+  CorotatedScalars o;
+  const double d1x = x1[0] - x0[0], d1y = x1[1] - x0[1], d1z = x1[2] - x0[2];
+  const double d2x = x2[0] - x0[0], d2y = x2[1] - x0[1], d2z = x2[2] - x0[2];
+  const double b00 = B(0, 0), b01 = B(0, 1), b10 = B(1, 0), b11 = B(1, 1);
+  // F = Ds · B, columns a and b.
+  const double ax = d1x * b00 + d2x * b10, ay = d1y * b00 + d2y * b10, az = d1z * b00 + d2z * b10;
+  const double bx = d1x * b01 + d2x * b11, by = d1y * b01 + d2y * b11, bz = d1z * b01 + d2z * b11;
+  o.ax = ax; o.ay = ay; o.az = az; o.bx = bx; o.by = by; o.bz = bz;
+  const double p = ax * ax + ay * ay + az * az;
+  const double q = ax * bx + ay * by + az * bz;
+  const double r = bx * bx + by * by + bz * bz;
+  const double trC = p + r, detC = p * r - q * q;
+  if (detC > kDegenerateRatio * trC * trC) {
+    const double s = std::sqrt(detC);
+    o.trS = std::sqrt(trC + 2 * s);
+    const double k = 1.0 / (o.trS * s);
+    const double c00 = (r + s) * k, c11 = (p + s) * k, c01 = q * k;
+    o.rax = c00 * ax - c01 * bx; o.ray = c00 * ay - c01 * by; o.raz = c00 * az - c01 * bz;
+    o.rbx = c11 * bx - c01 * ax; o.rby = c11 * by - c01 * ay; o.rbz = c11 * bz - c01 * az;
+  } else {
+    Mat32 F;
+    F << ax, bx, ay, by, az, bz;
+    const Mat32 R = polar_rotation_degenerate(F);
+    o.rax = R(0, 0); o.ray = R(1, 0); o.raz = R(2, 0);
+    o.rbx = R(0, 1); o.rby = R(1, 1); o.rbz = R(2, 1);
+    o.trS = o.rax * ax + o.ray * ay + o.raz * az + o.rbx * bx + o.rby * by + o.rbz * bz;
+  }
+  return o;
+}
+
+// P = e A (2μ (F − R) + λ (tr S − 2) R); the corner forces are H = −P Bᵀ on corners 1 and 2, corner 0
+// balances them (translation invariance).
+inline void corner_forces_of(double ax, double ay, double az, double bx, double by, double bz, double rax,
+                             double ray, double raz, double rbx, double rby, double rbz, double trS, const Mat2& B,
+                             double eA, double two_mu, double lambda, std::array<Vec3, 3>& out) {
+  const double b00 = B(0, 0), b01 = B(0, 1), b10 = B(1, 0), b11 = B(1, 1);
+  const double m = eA * two_mu, l = eA * lambda * (trS - 2) - m;
+  const double pax = m * ax + l * rax, pay = m * ay + l * ray, paz = m * az + l * raz;
+  const double pbx = m * bx + l * rbx, pby = m * by + l * rby, pbz = m * bz + l * rbz;
+  const double f1x = -(pax * b00 + pbx * b01), f1y = -(pay * b00 + pby * b01), f1z = -(paz * b00 + pbz * b01);
+  const double f2x = -(pax * b10 + pbx * b11), f2y = -(pay * b10 + pby * b11), f2z = -(paz * b10 + pbz * b11);
+  out[0] = Vec3(-(f1x + f2x), -(f1y + f2y), -(f1z + f2z));
+  out[1] = Vec3(f1x, f1y, f1z);
+  out[2] = Vec3(f2x, f2y, f2z);
+}
+
+}  // namespace
+
+void corotated_frame(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Mat2& rest_inv, CorotatedFrame& out) {
+  const CorotatedScalars c = corotated_scalars(x0.data(), x1.data(), x2.data(), rest_inv);
+  out.F << c.ax, c.bx, c.ay, c.by, c.az, c.bz;
+  out.R << c.rax, c.rbx, c.ray, c.rby, c.raz, c.rbz;
+  out.trace_s = c.trS;
+}
+
+void corotated_corner_forces(const CorotatedFrame& f, const Mat2& rest_inv, double rest_area,
+                             const MembraneParams& params, std::array<Vec3, 3>& corner_force) {
+  const Mat32& F = f.F;
+  const Mat32& R = f.R;
+  corner_forces_of(F(0, 0), F(1, 0), F(2, 0), F(0, 1), F(1, 1), F(2, 1), R(0, 0), R(1, 0), R(2, 0), R(0, 1), R(1, 1),
+                   R(2, 1), f.trace_s, rest_inv, params.thickness * rest_area, 2 * params.mu, params.lambda,
+                   corner_force);
+}
+
 void compute_membrane_forces(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
                              const std::vector<Mat2>& rest_inv, const std::vector<double>& rest_area,
                              const MembraneParams& params, int32_t begin, int32_t end,
@@ -103,48 +178,9 @@ void compute_membrane_forces(const std::vector<Vec3>& x, const std::vector<Tri>&
   const double two_mu = 2 * params.mu, lambda = params.lambda, e = params.thickness;
   for (int32_t t = begin; t < end; ++t) {
     const Tri& c = tri[t];
-    const double* x0 = x[c[0]].data();
-    const double* x1 = x[c[1]].data();
-    const double* x2 = x[c[2]].data();
-    const double d1x = x1[0] - x0[0], d1y = x1[1] - x0[1], d1z = x1[2] - x0[2];
-    const double d2x = x2[0] - x0[0], d2y = x2[1] - x0[1], d2z = x2[2] - x0[2];
-    const Mat2& B = rest_inv[t];
-    const double b00 = B(0, 0), b01 = B(0, 1), b10 = B(1, 0), b11 = B(1, 1);
-    // F = Ds · B, columns a and b.
-    const double ax = d1x * b00 + d2x * b10, ay = d1y * b00 + d2y * b10, az = d1z * b00 + d2z * b10;
-    const double bx = d1x * b01 + d2x * b11, by = d1y * b01 + d2y * b11, bz = d1z * b01 + d2z * b11;
-    const double p = ax * ax + ay * ay + az * az;
-    const double q = ax * bx + ay * by + az * bz;
-    const double r = bx * bx + by * by + bz * bz;
-    const double trC = p + r, detC = p * r - q * q;
-    double rax, ray, raz, rbx, rby, rbz, trS;
-    if (detC > kDegenerateRatio * trC * trC) {
-      const double s = std::sqrt(detC);
-      trS = std::sqrt(trC + 2 * s);
-      const double k = 1.0 / (trS * s);
-      const double c00 = (r + s) * k, c11 = (p + s) * k, c01 = q * k;
-      rax = c00 * ax - c01 * bx; ray = c00 * ay - c01 * by; raz = c00 * az - c01 * bz;
-      rbx = c11 * bx - c01 * ax; rby = c11 * by - c01 * ay; rbz = c11 * bz - c01 * az;
-    } else {
-      Mat32 F;
-      F << ax, bx, ay, by, az, bz;
-      const Mat32 R = polar_rotation_degenerate(F);
-      rax = R(0, 0); ray = R(1, 0); raz = R(2, 0);
-      rbx = R(0, 1); rby = R(1, 1); rbz = R(2, 1);
-      trS = rax * ax + ray * ay + raz * az + rbx * bx + rby * by + rbz * bz;
-    }
-    // P = e A (2μ (F − R) + λ (tr S − 2) R)
-    const double eA = e * rest_area[t];
-    const double m = eA * two_mu, l = eA * lambda * (trS - 2) - m;
-    const double pax = m * ax + l * rax, pay = m * ay + l * ray, paz = m * az + l * raz;
-    const double pbx = m * bx + l * rbx, pby = m * by + l * rby, pbz = m * bz + l * rbz;
-    // H = −P Bᵀ: forces on corners 1 and 2; corner 0 balances them (translation invariance).
-    const double f1x = -(pax * b00 + pbx * b01), f1y = -(pay * b00 + pby * b01), f1z = -(paz * b00 + pbz * b01);
-    const double f2x = -(pax * b10 + pbx * b11), f2y = -(pay * b10 + pby * b11), f2z = -(paz * b10 + pbz * b11);
-    std::array<Vec3, 3>& out = corner_force[t];
-    out[0] = Vec3(-(f1x + f2x), -(f1y + f2y), -(f1z + f2z));
-    out[1] = Vec3(f1x, f1y, f1z);
-    out[2] = Vec3(f2x, f2y, f2z);
+    const CorotatedScalars s = corotated_scalars(x[c[0]].data(), x[c[1]].data(), x[c[2]].data(), rest_inv[t]);
+    corner_forces_of(s.ax, s.ay, s.az, s.bx, s.by, s.bz, s.rax, s.ray, s.raz, s.rbx, s.rby, s.rbz, s.trS, rest_inv[t],
+                     e * rest_area[t], two_mu, lambda, corner_force[t]);
   }
 }
 

@@ -23,6 +23,18 @@ Eigen::Matrix<double, 3, 2> deformation_gradient(const std::vector<Vec3>& x, con
 // that is still well defined (continuous choice, no NaN).
 Eigen::Matrix<double, 3, 2> polar_rotation(const Eigen::Matrix<double, 3, 2>& F);
 
+// F, its polar rotation R and tr(RᵀF) = σ₁ + σ₂ of one triangle, and the corner forces from them. The implicit
+// integrator needs forces, energy and stiffness per substep from one polar decomposition (the costly part)
+// and may carry a frame over from its energy check to the next substep. The forces are bit-identical to
+// what compute_membrane_forces writes for the triangle.
+struct CorotatedFrame {
+  Eigen::Matrix<double, 3, 2> F, R;
+  double trace_s = 0;
+};
+void corotated_frame(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Mat2& rest_inv, CorotatedFrame& out);
+void corotated_corner_forces(const CorotatedFrame& frame, const Mat2& rest_inv, double rest_area,
+                             const MembraneParams& params, std::array<Vec3, 3>& corner_force);
+
 // Triangles [begin, end): corner forces, written to corner_force[t]. Serial kernel; the engine calls it
 // on ranges in parallel (each triangle writes only its own slot).
 void compute_membrane_forces(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
