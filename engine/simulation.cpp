@@ -120,6 +120,7 @@ struct Simulation::Impl {
   int32_t frame = 0;
   std::vector<Vec3> targets_begin;  // finger targets at the start of the frame
   std::vector<Candidate> candidates;
+  FiberSampleCache fiber_cache;  // T_fiber per vertex for the candidates' Ef
   FrameProfile profile;
   TimingReport timings;
   std::vector<FrameStats> stats;
@@ -290,7 +291,7 @@ struct Simulation::Impl {
 
   void run_candidates() {
     ScopedTimer timer(profile.candidates);
-    find_candidates(sheet.verts, sheet.tips, sheet.fingers, sheet.tears, sheet.material, fiber, candidates);
+    find_candidates(sheet.verts, sheet.tips, sheet.fingers, sheet.tears, sheet.material, fiber, candidates, fiber_cache);
   }
 
   void refresh_role_flags() {
@@ -403,7 +404,7 @@ struct Simulation::Impl {
       // Vertex ids changed: find the candidates again and go on with the ones not yet treated.
       {
         ScopedTimer timer(profile.candidates);
-        find_candidates(sheet.verts, sheet.tips, sheet.fingers, sheet.tears, sheet.material, fiber, candidates);
+        find_candidates(sheet.verts, sheet.tips, sheet.fingers, sheet.tears, sheet.material, fiber, candidates, fiber_cache);
       }
       index = 0;
       ++propagations;

@@ -6,6 +6,7 @@
 #include "systems/candidates.hpp"
 
 #include <algorithm>
+#include <limits>
 
 namespace pt {
 namespace {
@@ -29,19 +30,34 @@ bool candidate_kind(uint8_t flags, bool held_by_finger, StartKind& kind) {
 }
 
 // Eq. 3: Ef(p) = c · T_fiber(u, v) · d_p with d_p = D at a tear tip and 1 elsewhere.
-double fracture_energy(const Material& material, const FiberField& fiber, const Vec2& uv, bool is_tip) {
+// T_fiber at vertex v, from the cache when v has not moved in the pattern since it was sampled.
+double fiber_at(const FiberField& fiber, const Vertices& verts, int32_t v, FiberSampleCache* cache) {
+  const Vec2& uv = verts.rest[v];
+  if (!cache) return fiber_sample(fiber, uv);
+  if (cache->uv[v] != uv) {
+    cache->uv[v] = uv;
+    cache->value[v] = fiber_sample(fiber, uv);
+  }
+  return cache->value[v];
+}
+
+double fracture_energy(const Material& material, double fiber_value, bool is_tip) {
   const double d = is_tip ? material.tip_damage : 1.0;
   // Eq. 3 with T_fiber lifted onto [fiber_floor, 1]: paper has weak spots but no holes, so the weakest
   // fibres keep a share of c (fiber_floor = 0 is the paper's eq. 3 exactly).
-  const double t = material.fiber_floor + (1.0 - material.fiber_floor) * fiber_sample(fiber, uv);
+  const double t = material.fiber_floor + (1.0 - material.fiber_floor) * fiber_value;
   return material.fracture_c * t * d;
 }
 
 void find_candidates_impl(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
                           const Material& material, const FiberField& fiber, const std::vector<Tear>* tears,
-                          std::vector<Candidate>& out) {
+                          std::vector<Candidate>& out, FiberSampleCache* cache) {
   out.clear();
   const int32_t nv = verts.size();
+  if (cache && static_cast<int32_t>(cache->uv.size()) != nv) {
+    cache->uv.resize(nv, Vec2::Constant(std::numeric_limits<double>::quiet_NaN()));
+    cache->value.resize(nv, 0.0);
+  }
   std::vector<char> taken(static_cast<size_t>(nv), 0);
   std::vector<char> held(static_cast<size_t>(nv), 0);
   // A finger's vertex counts even if the kFinger flag has not been refreshed yet.
@@ -65,7 +81,7 @@ void find_candidates_impl(const Vertices& verts, const std::vector<Tip>& tips, c
     } else if (!candidate_kind(verts.flags[tip.vertex], held[tip.vertex], c.kind)) {
       c.kind = StartKind::Inward;  // every tear tip is an inward-angle point (paper §4.1)
     }
-    c.fracture_energy = fracture_energy(material, fiber, verts.rest[tip.vertex], true);
+    c.fracture_energy = fracture_energy(material, fiber_at(fiber, verts, tip.vertex, cache), true);
     out.push_back(c);
   }
 
@@ -80,7 +96,7 @@ void find_candidates_impl(const Vertices& verts, const std::vector<Tip>& tips, c
     if (verts.tear[v] >= 0) flags &= static_cast<uint8_t>(~kJunction);
     if (!candidate_kind(flags, held[v], c.kind)) continue;
     c.vertex = v;
-    c.fracture_energy = fracture_energy(material, fiber, verts.rest[v], false);
+    c.fracture_energy = fracture_energy(material, fiber_at(fiber, verts, v, cache), false);
     out.push_back(c);
   }
 }
@@ -89,13 +105,19 @@ void find_candidates_impl(const Vertices& verts, const std::vector<Tip>& tips, c
 
 void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
                      const Material& material, const FiberField& fiber, std::vector<Candidate>& out) {
-  find_candidates_impl(verts, tips, fingers, material, fiber, nullptr, out);
+  find_candidates_impl(verts, tips, fingers, material, fiber, nullptr, out, nullptr);
 }
 
 void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
                      const std::vector<Tear>& tears, const Material& material, const FiberField& fiber,
                      std::vector<Candidate>& out) {
-  find_candidates_impl(verts, tips, fingers, material, fiber, &tears, out);
+  find_candidates_impl(verts, tips, fingers, material, fiber, &tears, out, nullptr);
+}
+
+void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
+                     const std::vector<Tear>& tears, const Material& material, const FiberField& fiber,
+                     std::vector<Candidate>& out, FiberSampleCache& cache) {
+  find_candidates_impl(verts, tips, fingers, material, fiber, &tears, out, &cache);
 }
 
 }  // namespace pt

@@ -27,4 +27,18 @@ void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const 
                      const std::vector<Tear>& tears, const Material& material, const FiberField& fiber,
                      std::vector<Candidate>& out);
 
+// T_fiber at each vertex's pattern position, remembered between calls: the candidates are rebuilt after
+// every propagation (DESIGN §3) and a bilinear sample of the procedural field costs 4 texels × 5 octaves of
+// Perlin noise. An entry is used only while its vertex still sits at the same pattern point, so vertex
+// renumbering by remeshing needs no invalidation. 24 bytes per vertex.
+struct FiberSampleCache {
+  std::vector<Vec2> uv;
+  std::vector<double> value;  // fiber_sample at uv; NaN uv marks an empty slot
+};
+
+// Same as above, with the cache (in and out). Results are bit-identical to the uncached call.
+void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
+                     const std::vector<Tear>& tears, const Material& material, const FiberField& fiber,
+                     std::vector<Candidate>& out, FiberSampleCache& cache);
+
 }  // namespace pt

@@ -155,6 +155,27 @@ TEST(Candidates, ActiveTipsFirstWithDamage) {
   }
 }
 
+// The per-vertex T_fiber cache gives bit for bit the uncached Ef, and follows a vertex that moved in the
+// pattern or was renumbered (remeshing swaps vertices) instead of returning a stale value.
+TEST(Candidates, FiberCacheMatchesUncachedAndFollowsMovedVertices) {
+  Sheet s = notched_sheet();
+  s.tips = {Tip{5, 0, Vec2::Zero()}};
+  const FiberField fiber = fiber_field();
+  FiberSampleCache cache;
+  for (int round = 0; round < 3; ++round) {
+    if (round == 1) std::swap(s.verts.rest[5], s.verts.rest[6]);            // a renumbering
+    if (round == 2) s.verts.rest[6] += Vec2(0.0031, -0.0017);              // a vertex at a new point
+    std::vector<Candidate> cached, plain;
+    find_candidates(s.verts, s.tips, s.fingers, s.tears, s.material, fiber, cached, cache);
+    find_candidates(s.verts, s.tips, s.fingers, s.tears, s.material, fiber, plain);
+    ASSERT_EQ(cached.size(), plain.size());
+    for (size_t i = 0; i < plain.size(); ++i) {
+      EXPECT_EQ(cached[i].vertex, plain[i].vertex);
+      EXPECT_EQ(cached[i].fracture_energy, plain[i].fracture_energy) << "round " << round << " candidate " << i;
+    }
+  }
+}
+
 // Ef scales with c and, at a tip, with D (eq. 3); D = 0 makes a tip free to run.
 TEST(Candidates, FractureEnergyScalesWithMaterial) {
   Sheet s = notched_sheet();
