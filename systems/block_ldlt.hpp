@@ -40,18 +40,22 @@ struct BlockLdlt {
   // increasing order); the columns of `top_columns` follow serially. One workspace per task.
   std::vector<int32_t> task_start, task_columns, top_columns;
   std::vector<std::vector<Mat3>> work;  // scattered column per task (+1 for the top), zero between uses
+  int64_t block_updates = 0;  // Σ over columns of c(c+1)/2, c = blocks below the diagonal: 54 flops each
   bool factorized = false;
 };
 
 struct BlockLdltParams {
   int32_t min_parallel_blocks = 400;  // below this many block rows the factorisation stays one task
   int32_t tasks = 8;                  // subtrees to aim for (a few per core, for balance)
+  int32_t min_dissection_blocks = 200;  // nested dissection tried from this many block rows (with coordinates)
+  int32_t dissection_leaf = 1500;       // parts below this many block rows are ordered by AMD
 };
 
 // Symbolic analysis. `keys` are the (row, col) block positions of the full symmetric pattern, every
-// diagonal block (i, i) included, each pair once; values later come in the same order.
+// diagonal block (i, i) included, each pair once; values later come in the same order. `coordinates`
+// (n 2D positions, e.g. the rest pattern of the vertices, or empty) allow a geometric nested dissection.
 void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>>& keys, const BlockLdltParams& params,
-                        BlockLdlt& out);
+                        BlockLdlt& out, const std::vector<Eigen::Vector2d>& coordinates = {});
 
 // Numeric factorisation of the matrix whose block at keys[b] is values[b]. Returns false (and leaves the
 // factor unusable) when a pivot block is not positive definite or not finite.

@@ -183,7 +183,10 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
         if (i >= 0 && j < 0) s.bending_held.push_back({i, st.v[b], kscale * st.w[a] * st.w[b]});
       }
 
-  analyze_block_ldlt(s.free_count, s.block_key, BlockLdltParams{}, s.ldlt);
+  std::vector<Vec2> free_rest(s.free_count);  // the pattern positions let the solver order by nested dissection
+  for (int32_t v = 0; v < nv; ++v)
+    if (s.free_index[v] >= 0) free_rest[s.free_index[v]] = V.rest[v];
+  analyze_block_ldlt(s.free_count, s.block_key, BlockLdltParams{}, s.ldlt, free_rest);
   s.block_values.resize(s.block_key.size());
   s.analysed = true;
   s.tri_k.resize(nt);
