@@ -132,8 +132,8 @@ GLuint compile(GLenum type, const char* src) {
   return s;
 }
 
-GLuint link(const char* vs, const char* fs) {
-  GLuint v = compile(GL_VERTEX_SHADER, vs), f = compile(GL_FRAGMENT_SHADER, fs);
+GLuint link(const std::string& vs, const std::string& fs) {
+  GLuint v = compile(GL_VERTEX_SHADER, vs.c_str()), f = compile(GL_FRAGMENT_SHADER, fs.c_str());
   if (!v || !f) return 0;
   GLuint p = glCreateProgram();
   glAttachShader(p, v);
@@ -171,7 +171,11 @@ void main() {
 }
 )";
 
-const char* kSheetFS = R"(#version 330 core
+// Compiled twice: with CARVED for the triangles whose texture footprint meets a carved label tile, and
+// without for the others, where every label is 0 (untouched paper) and the lookup would change nothing.
+// On llvmpipe the label fetch (a gather from a texture of several MB) is the most expensive part of a
+// fragment, and most of the sheet is far from any tear.
+const char* kSheetFS = R"(
 in vec3 v_pos;
 in vec3 v_normal;
 in vec2 v_uv;
@@ -186,13 +190,15 @@ uniform vec3 u_eye;
 uniform vec3 u_light;       // unit, towards the key light
 out vec4 frag;
 void main() {
-  ivec2 px = ivec2(floor((v_uv - u_origin) / u_pixel));
   bool path = false;
+#ifdef CARVED
+  ivec2 px = ivec2(floor((v_uv - u_origin) / u_pixel));
   if (px.x >= 0 && px.y >= 0 && px.x < u_label_size.x && px.y < u_label_size.y) {
     uint l = texelFetch(u_labels, px, 0).r;
     if (l == 65535u) path = true;
     else if (v_side > 0 && l != 0u && (int(l) - 1) / 2 == (v_side - 1) / 2 && int(l) != v_side) discard;
   }
+#endif
   vec3 n = normalize(v_normal);
   if (!gl_FrontFacing) n = -n;
   vec3 view = normalize(u_eye - v_pos);
@@ -204,7 +210,13 @@ void main() {
   float key = max(dot(n, u_light), 0.0);
   float head = max(dot(n, view), 0.0);
   vec3 h = normalize(u_light + view);
-  float spec = pow(max(dot(n, h), 0.0), 32.0) * 0.06;
+  float spec = max(dot(n, h), 0.0);  // ^32 by squaring: llvmpipe's pow is exp2(log2) polynomials
+  spec *= spec;
+  spec *= spec;
+  spec *= spec;
+  spec *= spec;
+  spec *= spec;
+  spec *= 0.06;
   vec3 c = base * (0.28 + 0.47 * key + 0.30 * head) + vec3(spec);
   frag = vec4(c, 1.0);
 }
@@ -238,19 +250,125 @@ void to_float(const Mat4& m, float out[16]) {
 
 }  // namespace
 
+// --- layer ---------------------------------------------------------------------------------------------
+
+namespace {
+
+const char* kLayerVS = R"(#version 330 core
+uniform vec4 u_rect;  // the rectangle in layer texture coordinates: x0, y0, x1, y1
+out vec2 v_uv;
+void main() {
+  vec2 corner = vec2(gl_VertexID & 1, gl_VertexID >> 1);  // triangle strip of the viewport
+  v_uv = mix(u_rect.xy, u_rect.zw, corner);
+  gl_Position = vec4(corner * 2.0 - 1.0, 0.0, 1.0);
+}
+)";
+
+const char* kLayerFS = R"(#version 330 core
+uniform sampler2D u_layer;
+in vec2 v_uv;
+out vec4 frag;
+void main() { frag = texture(u_layer, v_uv); }
+)";
+
+}  // namespace
+
+Layer::~Layer() {
+  if (program_) glDeleteProgram(program_);
+  if (vao_) glDeleteVertexArrays(1, &vao_);
+  if (fbo_) glDeleteFramebuffers(1, &fbo_);
+  if (tex_) glDeleteTextures(1, &tex_);
+}
+
+void Layer::begin(int w, int h, const std::array<float, 4>& clear) {
+  w = std::max(1, w);
+  h = std::max(1, h);
+  if (!fbo_) {
+    glGenFramebuffers(1, &fbo_);
+    glGenTextures(1, &tex_);
+  }
+  if (w != w_ || h != h_) {
+    w_ = w;
+    h_ = h;
+    glBindTexture(GL_TEXTURE_2D, tex_);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, w_, h_, 0, GL_RGBA, GL_UNSIGNED_BYTE, nullptr);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    glBindTexture(GL_TEXTURE_2D, 0);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, tex_, 0);
+  }
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
+  glViewport(0, 0, w_, h_);
+  glDisable(GL_SCISSOR_TEST);
+  glClearColor(clear[0], clear[1], clear[2], clear[3]);
+  glClear(GL_COLOR_BUFFER_BIT);
+}
+
+void Layer::end() { glBindFramebuffer(GL_FRAMEBUFFER, 0); }
+
+void Layer::copy_to_window(int x, int y, int w, int h, int dst_x, int dst_y) const {
+  if (!fbo_ || w <= 0 || h <= 0) return;
+  glDisable(GL_SCISSOR_TEST);
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+  glBlitFramebuffer(x, y, x + w, y + h, dst_x, dst_y, dst_x + w, dst_y + h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+void Layer::composite(int x, int y, int w, int h) const {
+  x = std::max(0, x);
+  y = std::max(0, y);
+  w = std::min(w, w_ - x);
+  h = std::min(h, h_ - y);
+  if (!fbo_ || w <= 0 || h <= 0) return;
+  if (!program_) {
+    program_ = link(kLayerVS, kLayerFS);
+    glGenVertexArrays(1, &vao_);
+    if (!program_) return;
+  }
+  glViewport(x, y, w, h);
+  glDisable(GL_SCISSOR_TEST);
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+  glEnable(GL_BLEND);
+  glBlendEquation(GL_FUNC_ADD);
+  glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+  glUseProgram(program_);
+  glUniform4f(glGetUniformLocation(program_, "u_rect"), float(x) / w_, float(y) / h_, float(x + w) / w_,
+              float(y + h) / h_);
+  glUniform1i(glGetUniformLocation(program_, "u_layer"), 0);
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_2D, tex_);
+  glBindVertexArray(vao_);
+  glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
+  glBindVertexArray(0);
+  glBindTexture(GL_TEXTURE_2D, 0);
+  glUseProgram(0);
+  glDisable(GL_BLEND);
+}
+
+// --- renderer ------------------------------------------------------------------------------------------
+
 Renderer::~Renderer() {
   if (sheet_program_) glDeleteProgram(sheet_program_);
+  if (carved_program_) glDeleteProgram(carved_program_);
   if (line_program_) glDeleteProgram(line_program_);
-  GLuint vaos[2] = {sheet_vao_, line_vao_}, vbos[2] = {sheet_vbo_, line_vbo_}, texs[2] = {paper_tex_, label_tex_};
-  glDeleteVertexArrays(2, vaos);
-  glDeleteBuffers(2, vbos);
+  GLuint vaos[3] = {sheet_vao_, line_vao_, pattern_vao_}, vbos[3] = {sheet_vbo_, line_vbo_, pattern_vbo_},
+         texs[2] = {paper_tex_, label_tex_};
+  glDeleteVertexArrays(3, vaos);
+  glDeleteBuffers(3, vbos);
   glDeleteTextures(2, texs);
 }
 
 bool Renderer::init() {
-  sheet_program_ = link(kSheetVS, kSheetFS);
+  const std::string version = "#version 330 core\n";
+  sheet_program_ = link(kSheetVS, version + kSheetFS);
+  carved_program_ = link(kSheetVS, version + "#define CARVED 1\n" + kSheetFS);
   line_program_ = link(kLineVS, kLineFS);
-  if (!sheet_program_ || !line_program_) return false;
+  if (!sheet_program_ || !carved_program_ || !line_program_) return false;
   glGenVertexArrays(1, &sheet_vao_);
   glGenBuffers(1, &sheet_vbo_);
   glBindVertexArray(sheet_vao_);
@@ -265,6 +383,14 @@ bool Renderer::init() {
   glGenBuffers(1, &line_vbo_);
   glBindVertexArray(line_vao_);
   glBindBuffer(GL_ARRAY_BUFFER, line_vbo_);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(0));
+  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(3 * sizeof(float)));
+  glEnableVertexAttribArray(0);
+  glEnableVertexAttribArray(1);
+  glGenVertexArrays(1, &pattern_vao_);
+  glGenBuffers(1, &pattern_vbo_);
+  glBindVertexArray(pattern_vao_);
+  glBindBuffer(GL_ARRAY_BUFFER, pattern_vbo_);
   glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(0));
   glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(3 * sizeof(float)));
   glEnableVertexAttribArray(0);
@@ -319,6 +445,7 @@ void Renderer::load_sheet(const Simulation& sim) {
   labels_carved_ = -1;
   tiles_uploaded_ = 0;
   tile_shadow_.clear();
+  carved_tiles_.clear();
 }
 
 void Renderer::upload_labels(const Simulation& sim) {
@@ -346,6 +473,34 @@ void Renderer::upload_labels(const Simulation& sim) {
   }
   glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
   glBindTexture(GL_TEXTURE_2D, 0);
+
+  tiles_x_ = (label_w_ + kTileSize - 1) / kTileSize;
+  tiles_y_ = (label_h_ + kTileSize - 1) / kTileSize;
+  carved_tiles_.assign(static_cast<size_t>(tiles_x_) * tiles_y_, 0);
+  for (const uint32_t key : cs.tile_keys) {
+    const int tx = static_cast<int>(key & 0xFFFFu), ty = static_cast<int>(key >> 16);
+    if (tx < tiles_x_ && ty < tiles_y_) carved_tiles_[static_cast<size_t>(ty) * tiles_x_ + tx] = 1;
+  }
+}
+
+bool Renderer::touches_carved_tile(const Vec2& a, const Vec2& b, const Vec2& c) const {
+  if (carved_tiles_.empty()) return false;
+  const Vec2 lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
+  // The label pixels the fragment shader can fetch for this triangle (its texture coordinates are
+  // convex combinations of the corners'), one pixel wider against rounding.
+  auto pixel = [&](double u, double origin, int size) {
+    const double p = std::floor((u - origin) / tex_pixel_);
+    return static_cast<int>(std::clamp(p, -1.0, static_cast<double>(size)));
+  };
+  const int i0 = std::max(0, pixel(lo.x(), tex_origin_.x(), label_w_) - 1);
+  const int i1 = std::min(label_w_ - 1, pixel(hi.x(), tex_origin_.x(), label_w_) + 1);
+  const int j0 = std::max(0, pixel(lo.y(), tex_origin_.y(), label_h_) - 1);
+  const int j1 = std::min(label_h_ - 1, pixel(hi.y(), tex_origin_.y(), label_h_) + 1);
+  if (i0 > i1 || j0 > j1) return false;
+  for (int ty = j0 / kTileSize; ty <= j1 / kTileSize; ++ty)
+    for (int tx = i0 / kTileSize; tx <= i1 / kTileSize; ++tx)
+      if (carved_tiles_[static_cast<size_t>(ty) * tiles_x_ + tx]) return true;
+  return false;
 }
 
 void Renderer::draw(const Simulation& sim, const Camera& camera, bool wireframe) {
@@ -364,9 +519,21 @@ void Renderer::draw(const Simulation& sim, const Camera& camera, bool wireframe)
   for (Vec3& n : normals_) n = n.norm() > 0 ? Vec3(n.normalized()) : Vec3(0, 0, 1);
   assign_triangle_sides(s.verts.rest, s.verts.tear, s.tris.tri, s.tears, sides_);
 
+  // Triangles that can show a carved label first (drawn with the carving shader), then the others.
+  order_.clear();
+  for (int32_t t = 0; t < nt; ++t) {
+    const Tri& c = s.tris.tri[t];
+    if (touches_carved_tile(s.verts.rest[c[0]], s.verts.rest[c[1]], s.verts.rest[c[2]])) order_.push_back(t);
+  }
+  const int32_t n_carved = static_cast<int32_t>(order_.size());
+  for (int32_t t = 0, next = 0; t < nt; ++t) {
+    if (next < n_carved && order_[next] == t) ++next;
+    else order_.push_back(t);
+  }
+
   sheet_data_.resize(static_cast<size_t>(nt) * 27);
   float* out = sheet_data_.data();
-  for (int32_t t = 0; t < nt; ++t) {
+  for (const int32_t t : order_) {
     const Tri& c = s.tris.tri[t];
     for (int k = 0; k < 3; ++k) {
       const Vec3& x = s.verts.x[c[k]];
@@ -417,26 +584,37 @@ void Renderer::draw(const Simulation& sim, const Camera& camera, bool wireframe)
   glDisable(GL_CULL_FACE);  // both sides
   glEnable(GL_POLYGON_OFFSET_FILL);
   glPolygonOffset(1.0f, 1.0f);
-  glUseProgram(sheet_program_);
-  glUniformMatrix4fv(glGetUniformLocation(sheet_program_, "u_mvp"), 1, GL_FALSE, mvp);
-  glUniform2f(glGetUniformLocation(sheet_program_, "u_origin"), float(tex_origin_.x()), float(tex_origin_.y()));
-  glUniform1f(glGetUniformLocation(sheet_program_, "u_pixel"), float(tex_pixel_));
-  glUniform2i(glGetUniformLocation(sheet_program_, "u_label_size"), label_w_, label_h_);
-  glUniform2f(glGetUniformLocation(sheet_program_, "u_paper_extent"), float(paper_extent_.x()),
-              float(paper_extent_.y()));
-  glUniform3f(glGetUniformLocation(sheet_program_, "u_eye"), float(eye.x()), float(eye.y()), float(eye.z()));
-  glUniform3f(glGetUniformLocation(sheet_program_, "u_light"), float(light.x()), float(light.y()), float(light.z()));
-  glUniform1i(glGetUniformLocation(sheet_program_, "u_paper"), 0);
-  glUniform1i(glGetUniformLocation(sheet_program_, "u_labels"), 1);
+  auto use_sheet_program = [&](GLuint program) {
+    glUseProgram(program);
+    glUniformMatrix4fv(glGetUniformLocation(program, "u_mvp"), 1, GL_FALSE, mvp);
+    glUniform2f(glGetUniformLocation(program, "u_origin"), float(tex_origin_.x()), float(tex_origin_.y()));
+    glUniform1f(glGetUniformLocation(program, "u_pixel"), float(tex_pixel_));
+    glUniform2i(glGetUniformLocation(program, "u_label_size"), label_w_, label_h_);
+    glUniform2f(glGetUniformLocation(program, "u_paper_extent"), float(paper_extent_.x()), float(paper_extent_.y()));
+    glUniform3f(glGetUniformLocation(program, "u_eye"), float(eye.x()), float(eye.y()), float(eye.z()));
+    glUniform3f(glGetUniformLocation(program, "u_light"), float(light.x()), float(light.y()), float(light.z()));
+    glUniform1i(glGetUniformLocation(program, "u_paper"), 0);
+    glUniform1i(glGetUniformLocation(program, "u_labels"), 1);
+  };
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, paper_tex_);
   glActiveTexture(GL_TEXTURE1);
   glBindTexture(GL_TEXTURE_2D, label_tex_);
   glBindVertexArray(sheet_vao_);
   glBindBuffer(GL_ARRAY_BUFFER, sheet_vbo_);
-  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(sheet_data_.size() * sizeof(float)), sheet_data_.data(),
-               GL_STREAM_DRAW);
-  glDrawArrays(GL_TRIANGLES, 0, nt * 3);
+  if (sheet_data_ != sheet_uploaded_) {  // paused or still: nothing to send
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(sheet_data_.size() * sizeof(float)), sheet_data_.data(),
+                 GL_STREAM_DRAW);
+    sheet_uploaded_.swap(sheet_data_);
+  }
+  if (n_carved > 0) {
+    use_sheet_program(carved_program_);
+    glDrawArrays(GL_TRIANGLES, 0, n_carved * 3);
+  }
+  if (n_carved < nt) {
+    use_sheet_program(sheet_program_);
+    glDrawArrays(GL_TRIANGLES, n_carved * 3, (nt - n_carved) * 3);
+  }
   glDisable(GL_POLYGON_OFFSET_FILL);
 
   if (!line_data_.empty()) {
@@ -525,39 +703,49 @@ void Renderer::draw_pattern(const Simulation& sim, int x, int y, int w, int h, c
   }
   const size_t fingers_end = line_data_.size() / 6;
 
-  glEnable(GL_SCISSOR_TEST);
-  glScissor(x, y, w, h);
-  glViewport(x, y, w, h);
-  glClearColor(0.13f, 0.13f, 0.16f, 1.0f);
-  glClear(GL_COLOR_BUFFER_BIT);
+  // Everything the inset shows: the vertices (fills, then lines and points), their ranges, the map.
+  fill_data_.insert(fill_data_.end(), line_data_.begin(), line_data_.end());
+  fill_data_.insert(fill_data_.end(), mvp, mvp + 16);
+  fill_data_.push_back(float(w));
+  fill_data_.push_back(float(h));
+  const std::array<size_t, 6> counts = {fill_count, wire_count, line_count, cand_end, tips_end, fingers_end};
   glDisable(GL_DEPTH_TEST);
-  glEnable(GL_PROGRAM_POINT_SIZE);
-  glUseProgram(line_program_);
-  glUniformMatrix4fv(glGetUniformLocation(line_program_, "u_mvp"), 1, GL_FALSE, mvp);
-  glUniform1f(glGetUniformLocation(line_program_, "u_lift"), 0.f);
-  const GLint ps = glGetUniformLocation(line_program_, "u_point_size");
-  glUniform1f(ps, 1.f);
-  glBindVertexArray(line_vao_);
-  glBindBuffer(GL_ARRAY_BUFFER, line_vbo_);
-  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(fill_data_.size() * sizeof(float)), fill_data_.data(),
-               GL_STREAM_DRAW);
-  glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(fill_count));
-  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(line_data_.size() * sizeof(float)), line_data_.data(),
-               GL_STREAM_DRAW);
-  glDrawArrays(GL_LINES, 0, static_cast<GLsizei>(wire_count));
-  glLineWidth(2.0f);  // where supported; 1 px otherwise
-  glDrawArrays(GL_LINES, static_cast<GLint>(wire_count), static_cast<GLsizei>(line_count - wire_count));
-  glLineWidth(1.0f);
-  glUniform1f(ps, 5.f);
-  glDrawArrays(GL_POINTS, static_cast<GLint>(line_count), static_cast<GLsizei>(cand_end - line_count));
-  glUniform1f(ps, 4.f);
-  glDrawArrays(GL_POINTS, static_cast<GLint>(cand_end), static_cast<GLsizei>(tips_end - cand_end));
-  glUniform1f(ps, 10.f);
-  glDrawArrays(GL_POINTS, static_cast<GLint>(tips_end), static_cast<GLsizei>(fingers_end - tips_end));
-  glBindVertexArray(0);
-  glUseProgram(0);
-  glDisable(GL_PROGRAM_POINT_SIZE);
-  glDisable(GL_SCISSOR_TEST);
+  if (fill_data_ != pattern_drawn_ || counts != pattern_counts_ || pattern_layer_.width() != w ||
+      pattern_layer_.height() != h) {
+    ++pattern_redraws_;
+    pattern_counts_ = counts;
+    pattern_layer_.begin(w, h);
+    glClearColor(0.13f, 0.13f, 0.16f, 1.0f);
+    glClear(GL_COLOR_BUFFER_BIT);
+    glEnable(GL_PROGRAM_POINT_SIZE);
+    glUseProgram(line_program_);
+    glUniformMatrix4fv(glGetUniformLocation(line_program_, "u_mvp"), 1, GL_FALSE, mvp);
+    glUniform1f(glGetUniformLocation(line_program_, "u_lift"), 0.f);
+    const GLint ps = glGetUniformLocation(line_program_, "u_point_size");
+    glUniform1f(ps, 1.f);
+    glBindVertexArray(pattern_vao_);
+    glBindBuffer(GL_ARRAY_BUFFER, pattern_vbo_);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>((fill_count + fingers_end) * 6 * sizeof(float)),
+                 fill_data_.data(), GL_STREAM_DRAW);
+    const GLint first_line = static_cast<GLint>(fill_count);  // lines and points follow the fills
+    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(fill_count));
+    glDrawArrays(GL_LINES, first_line, static_cast<GLsizei>(wire_count));
+    glLineWidth(2.0f);  // where supported; 1 px otherwise
+    glDrawArrays(GL_LINES, first_line + static_cast<GLint>(wire_count), static_cast<GLsizei>(line_count - wire_count));
+    glLineWidth(1.0f);
+    glUniform1f(ps, 5.f);
+    glDrawArrays(GL_POINTS, first_line + static_cast<GLint>(line_count), static_cast<GLsizei>(cand_end - line_count));
+    glUniform1f(ps, 4.f);
+    glDrawArrays(GL_POINTS, first_line + static_cast<GLint>(cand_end), static_cast<GLsizei>(tips_end - cand_end));
+    glUniform1f(ps, 10.f);
+    glDrawArrays(GL_POINTS, first_line + static_cast<GLint>(tips_end), static_cast<GLsizei>(fingers_end - tips_end));
+    glBindVertexArray(0);
+    glUseProgram(0);
+    glDisable(GL_PROGRAM_POINT_SIZE);
+    pattern_layer_.end();
+    pattern_drawn_.swap(fill_data_);
+  }
+  pattern_layer_.copy_to_window(0, 0, w, h, x, y);
 }
 
 }  // namespace pt::viewer

@@ -8,6 +8,7 @@
 
 #include <Eigen/Geometry>
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -38,6 +39,39 @@ struct Camera {
   void frame_sheet(const Sheet& sheet, const Vec3& gravity);
 };
 
+// An offscreen colour layer (RGBA8 texture + framebuffer) for content that changes less often than
+// frames are drawn: it is drawn again only when its content changed and copied to the window every frame.
+// On llvmpipe a copy (or a blended quad) costs a fraction of drawing the content again.
+class Layer {
+ public:
+  Layer() = default;
+  ~Layer();
+  Layer(const Layer&) = delete;
+  Layer& operator=(const Layer&) = delete;
+
+  // Binds the layer's framebuffer for drawing, w × h pixels, cleared to `clear` (default transparent
+  // black); the viewport covers it. (Re)allocates on a size change.
+  void begin(int w, int h, const std::array<float, 4>& clear = {0, 0, 0, 0});
+  // Binds the window's framebuffer again.
+  void end();
+  // Copies the rectangle (x, y, w, h) of the layer (bottom-left origin) to the window at (dst_x, dst_y):
+  // opaque content, an exact copy of the pixels.
+  void copy_to_window(int x, int y, int w, int h, int dst_x, int dst_y) const;
+  // Composites the rectangle (x, y, w, h) over the same rectangle of the bound framebuffer (the window's
+  // or another layer's of the same size), the layer holding
+  // premultiplied colour (what drawing with glBlendFuncSeparate(SRC_ALPHA, ONE_MINUS_SRC_ALPHA, ONE,
+  // ONE_MINUS_SRC_ALPHA) over transparent black leaves): the result equals drawing onto the window (to
+  // 1/255: the layer stores 8 bits).
+  void composite(int x, int y, int w, int h) const;
+  int width() const { return w_; }
+  int height() const { return h_; }
+
+ private:
+  unsigned fbo_ = 0, tex_ = 0;
+  mutable unsigned program_ = 0, vao_ = 0;
+  int w_ = 0, h_ = 0;
+};
+
 class Renderer {
  public:
   Renderer() = default;
@@ -54,14 +88,20 @@ class Renderer {
   // The 2D pattern inset in the framebuffer rectangle (x, y from the bottom left, w × h pixels): the
   // mesh with regions coloured by kind (flat: paper, curved +: blue, curved −: orange), candidates
   // (amber), tears (detailed path black, coarse tips violet), fingers (red; selected ones yellow).
+  // Drawn into a layer only when any of that changed (remeshing, tearing, fingers, selection, size),
+  // copied otherwise.
   void draw_pattern(const Simulation& sim, int x, int y, int w, int h, const std::vector<int>& selected);
 
   int32_t label_tiles_uploaded() const { return tiles_uploaded_; }
+  // How many times the pattern inset was drawn (not copied from its layer).
+  int64_t pattern_redraws() const { return pattern_redraws_; }
 
  private:
   void upload_labels(const Simulation& sim);
+  // Whether a triangle with these pattern corners can fetch a label from a carved tile.
+  bool touches_carved_tile(const Vec2& a, const Vec2& b, const Vec2& c) const;
 
-  unsigned sheet_program_ = 0, line_program_ = 0;
+  unsigned sheet_program_ = 0, carved_program_ = 0, line_program_ = 0;
   unsigned sheet_vao_ = 0, sheet_vbo_ = 0, line_vao_ = 0, line_vbo_ = 0;
   unsigned paper_tex_ = 0, label_tex_ = 0;
   int label_w_ = 0, label_h_ = 0;
@@ -70,7 +110,16 @@ class Renderer {
   Vec2 paper_extent_ = Vec2(1, 1);
   int64_t labels_carved_ = -1;  // CarveState::carved_segments at the last label upload
   int32_t tiles_uploaded_ = 0;
-  std::vector<float> sheet_data_, line_data_, fill_data_;
+  std::vector<uint8_t> carved_tiles_;  // tiles_y_ × tiles_x_: 1 where CarveState has a tile
+  int tiles_x_ = 0, tiles_y_ = 0;
+  std::vector<int32_t> order_;          // triangles in drawing order: carved ones first
+  std::vector<float> sheet_data_, sheet_uploaded_, line_data_, fill_data_;
+  // Pattern inset: its own buffer and layer, and what was drawn into it last.
+  unsigned pattern_vao_ = 0, pattern_vbo_ = 0;
+  Layer pattern_layer_;
+  std::vector<float> pattern_drawn_;
+  std::array<size_t, 6> pattern_counts_{};
+  int64_t pattern_redraws_ = 0;
   std::vector<std::vector<uint16_t>> tile_shadow_;  // per CarveState tile slot: content last uploaded
   std::vector<Vec3> normals_;
   std::vector<int32_t> sides_;
