@@ -52,6 +52,7 @@ namespace {
 
 constexpr int kExitOk = 0, kExitInternal = 1, kExitInput = 2;
 constexpr double kPi = 3.14159265358979323846;
+constexpr std::array<float, 4> kBackground = {0.20f, 0.22f, 0.26f, 1.0f};  // the scene's clear colour
 
 // The built-in scenario: an A4 sheet with a small notch in the middle of its top edge, no fingers.
 const char* kDefaultScenario = R"({
@@ -193,6 +194,14 @@ struct App {
   int finger_counter = 0;
   std::array<Series, 5> series;  // physics, geometry, tearing, carving, frame
   Series sim_ms, render_ms, sheet_ms, ui_ms;
+  // The ImGui windows (panel, tooltips) drawn into a layer at most every kPanelPeriod s, or every frame
+  // while the user works in them; composited over the scene every frame (see draw_ui).
+  Layer ui_layer;  // the windows over transparent black (premultiplied)
+  Layer ui_flat;   // the same over the background colour: an exact copy where nothing else is behind
+  int inset_rect[4] = {0, 0, 0, 0};  // the pattern inset, GL pixels: x, y, w, h
+  double ui_drawn_at = -1e9;
+  int ui_rect[4] = {0, 0, 0, 0};  // composited rectangle, GL pixels: x, y, w, h
+  bool ui_refresh = true;         // draw the windows again this frame (set by whoever changes them)
   double last_pick_us = 0, max_pick_us = 0;
   int picks = 0;
   char record_path[512] = {0};
@@ -223,6 +232,7 @@ struct App {
     drag = Drag{};
     finger_counter = 0;
     pending_reset_params = false;
+    ui_refresh = true;
     for (Series& s : series) s = Series{};
   }
 
@@ -489,6 +499,7 @@ struct App {
 
   // The 2D pattern inset: bottom right, a third of the window's height (GL, see Renderer::draw_pattern).
   void draw_pattern_inset(int fw, int fh) {
+    inset_rect[2] = inset_rect[3] = 0;
     if (!show_pattern) return;
     Vec2 lo = Vec2::Constant(1e300), hi = Vec2::Constant(-1e300);
     for (const Vec2& p : scenario.outline) {
@@ -503,6 +514,10 @@ struct App {
     }
     const std::vector<int> sel(selected.begin(), selected.end());
     renderer.draw_pattern(*sim, fw - w - 10, 10, w, h, sel);
+    inset_rect[0] = fw - w - 10;
+    inset_rect[1] = 10;
+    inset_rect[2] = w;
+    inset_rect[3] = h;
     glViewport(0, 0, fw, fh);
   }
 
@@ -611,20 +626,134 @@ struct App {
     camera.width = std::max(1, ww);
     camera.height = std::max(1, wh);
     glViewport(0, 0, fw, fh);
-    glClearColor(0.20f, 0.22f, 0.26f, 1.0f);
-    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glClearColor(kBackground[0], kBackground[1], kBackground[2], kBackground[3]);
+    // Stencil with depth: llvmpipe clears a packed depth-stencil buffer with plain stores only when both
+    // are cleared (depth alone keeps the stencil bits: a read-modify-write of every pixel, ~1 ms here).
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT);
     const auto t0 = Clock::now();
     renderer.draw(*sim, camera, wireframe);
     draw_pattern_inset(fw, fh);
     glFinish();
     const auto t1 = Clock::now();
     ImGui::Render();
-    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    draw_ui(fw, fh);
     glFinish();
     const auto t2 = Clock::now();
     sheet_ms.add(std::chrono::duration<double, std::milli>(t1 - t0).count());
     ui_ms.add(std::chrono::duration<double, std::milli>(t2 - t1).count());
     render_ms.add(std::chrono::duration<double, std::milli>(t2 - t0).count());
+  }
+
+  // ImGui's draw data in two parts: the background list (finger markers, which follow the sheet) is
+  // drawn every frame; the windows go through ui_layer. Drawing the panel (text, six plots, a translucent
+  // background, all blended) costs llvmpipe 4-6 ms at 1280x800 on this 2-core machine; compositing it,
+  // about one. The panel's numbers and plots therefore refresh kPanelPeriod apart, and every frame while
+  // the mouse is over a window or a widget is active, on a click or key press (whatever they change
+  // shows at once), on a resize. Dragging on the sheet does not redraw the panel.
+  static constexpr double kPanelPeriod = 0.1;  // s: 10 Hz, like most frame-time overlays
+  void draw_ui(int fw, int fh) {
+    ImDrawData* dd = ImGui::GetDrawData();
+    if (!dd || !dd->Valid) return;
+    ImDrawList* background = ImGui::GetBackgroundDrawList();
+    std::vector<ImDrawList*> under, over;
+    for (int i = 0; i < dd->CmdListsCount; ++i) (dd->CmdLists[i] == background ? under : over).push_back(dd->CmdLists[i]);
+    auto part = [&](std::vector<ImDrawList*>& lists) {
+      ImDrawData d = *dd;
+      d.CmdLists = lists.data();
+      d.CmdListsCount = static_cast<int>(lists.size());
+      d.TotalVtxCount = d.TotalIdxCount = 0;
+      for (const ImDrawList* l : lists) {
+        d.TotalVtxCount += l->VtxBuffer.Size;
+        d.TotalIdxCount += l->IdxBuffer.Size;
+      }
+      return d;
+    };
+    if (!under.empty()) {
+      ImDrawData d = part(under);
+      ImGui_ImplOpenGL3_RenderDrawData(&d);
+    }
+
+    const ImGuiIO& io = ImGui::GetIO();
+    bool input = io.WantCaptureMouse || io.WantCaptureKeyboard || ImGui::IsAnyItemActive();
+    for (int b = 0; b < 5 && !input; ++b) input = io.MouseClicked[b] || io.MouseReleased[b];
+    for (int k = 0; k < 512 && !input; ++k) input = io.KeysDownDuration[k] == 0.0f;
+    const double now = glfwGetTime();
+    if (ui_refresh || input || now - ui_drawn_at >= kPanelPeriod || ui_layer.width() != fw ||
+        ui_layer.height() != fh) {
+      ui_refresh = false;
+      ui_drawn_at = now;
+      ImDrawData d = part(over);
+      ui_layer.begin(fw, fh);
+      ImGui_ImplOpenGL3_RenderDrawData(&d);
+      ui_layer.end();
+      flat_stale = true;
+      // The rectangle the windows cover (their vertices, 2 px wider for antialiased edges), GL pixels.
+      float lo_x = 1e30f, lo_y = 1e30f, hi_x = -1e30f, hi_y = -1e30f;
+      for (const ImDrawList* l : over)
+        for (const ImDrawVert& v : l->VtxBuffer) {
+          lo_x = std::min(lo_x, v.pos.x);
+          lo_y = std::min(lo_y, v.pos.y);
+          hi_x = std::max(hi_x, v.pos.x);
+          hi_y = std::max(hi_y, v.pos.y);
+        }
+      if (lo_x > hi_x) {
+        ui_rect[2] = ui_rect[3] = 0;
+      } else {
+        const float sx = dd->FramebufferScale.x, sy = dd->FramebufferScale.y;
+        const int x0 = std::max(0, static_cast<int>(std::floor((lo_x - dd->DisplayPos.x) * sx)) - 2);
+        const int x1 = std::min(fw, static_cast<int>(std::ceil((hi_x - dd->DisplayPos.x) * sx)) + 2);
+        const int y0 = std::max(0, static_cast<int>(std::floor((lo_y - dd->DisplayPos.y) * sy)) - 2);
+        const int y1 = std::min(fh, static_cast<int>(std::ceil((hi_y - dd->DisplayPos.y) * sy)) + 2);
+        ui_rect[0] = x0;
+        ui_rect[1] = fh - y1;
+        ui_rect[2] = x1 - x0;
+        ui_rect[3] = y1 - y0;
+      }
+    }
+    // Where only the background lies behind the windows, copying ui_flat gives the same pixels as
+    // blending ui_layer, at a fraction of the cost; otherwise (the sheet, a finger marker or the inset
+    // behind the panel) blend.
+    const int* r = ui_rect;
+    if (r[2] > 0 && r[3] > 0) {
+      if (behind_windows_is_background(fw, fh, under)) {
+        if (flat_stale) {
+          ui_flat.begin(fw, fh, kBackground);
+          ui_layer.composite(r[0], r[1], r[2], r[3]);
+          ui_flat.end();
+          flat_stale = false;
+        }
+        ui_flat.copy_to_window(r[0], r[1], r[2], r[3], r[0], r[1]);
+      } else {
+        ui_layer.composite(r[0], r[1], r[2], r[3]);
+      }
+    }
+    glViewport(0, 0, fw, fh);
+  }
+  bool flat_stale = true;
+
+  // Whether nothing but the cleared background lies under ui_rect: the sheet's projected bounding box
+  // (its vertices, 4 px wider for the edge lines), the background draw list and the inset stay clear.
+  bool behind_windows_is_background(int fw, int fh, const std::vector<ImDrawList*>& under) const {
+    const double x0 = ui_rect[0], y0 = ui_rect[1], x1 = x0 + ui_rect[2], y1 = y0 + ui_rect[3];
+    auto clear_of = [&](double lx, double ly, double hx, double hy) { return hx < x0 || lx > x1 || hy < y0 || ly > y1; };
+    if (inset_rect[2] > 0 && !clear_of(inset_rect[0], inset_rect[1], inset_rect[0] + inset_rect[2], inset_rect[1] + inset_rect[3]))
+      return false;
+    const double sx = double(fw) / camera.width, sy = double(fh) / camera.height;  // window → GL pixels
+    for (const ImDrawList* l : under)
+      for (const ImDrawVert& v : l->VtxBuffer)
+        if (!clear_of(v.pos.x * sx - 2, fh - v.pos.y * sy - 2, v.pos.x * sx + 2, fh - v.pos.y * sy + 2)) return false;
+    const Eigen::Matrix4d pv = camera.projection() * camera.view();
+    double lx = 1e300, ly = 1e300, hx = -1e300, hy = -1e300;
+    for (const Vec3& p : sim->sheet().verts.x) {
+      const Eigen::Vector4d c = pv * Eigen::Vector4d(p.x(), p.y(), p.z(), 1.0);
+      if (!(c.w() > 0)) return false;  // behind the eye: its projection is unbounded
+      const double gx = (c.x() / c.w() * 0.5 + 0.5) * fw, gy = (c.y() / c.w() * 0.5 + 0.5) * fh;
+      lx = std::min(lx, gx);
+      ly = std::min(ly, gy);
+      hx = std::max(hx, gx);
+      hy = std::max(hy, gy);
+    }
+    return lx > hx || clear_of(lx - 4, ly - 4, hx + 4, hy + 4);
   }
 
   bool save_png(const std::string& path) {
@@ -741,6 +870,7 @@ struct App {
         ImGui::NewFrame();
         panel();
         draw_finger_markers();
+        ui_refresh = true;  // the picture shows the panel as of this frame
         render_frame();
         if (!save_png(opt.screenshot)) {
           std::fprintf(stderr, "papertear-viewer: cannot write %s\n", opt.screenshot.c_str());
