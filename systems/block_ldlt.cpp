@@ -6,97 +6,15 @@
 #include <Eigen/SparseCore>
 
 #include <algorithm>
+#include <array>
 
 namespace pt {
 
 namespace {
 
-// Splits the elimination tree into disjoint subtrees of similar work (updates per column, summed over the
-// subtree): starting from the roots, the heaviest subtree is replaced by its children, its root joining
-// the serial top, until there are `params.tasks` subtrees or the heaviest is a leaf. With a fill-reducing
-// order the top is the chain of the last separators, which is serial work whatever the split. The
-// subtrees are then packed into at most `params.tasks` bins, heaviest first into the lightest bin.
-void split_into_subtrees(const std::vector<int32_t>& parent, const std::vector<int64_t>& column_work,
-                         const BlockLdltParams& params, BlockLdlt& out) {
-  const int32_t n = static_cast<int32_t>(parent.size());
-  out.task_start.clear();
-  out.task_columns.clear();
-  out.top_columns.clear();
-  if (n < params.min_parallel_blocks || params.tasks < 2) {
-    out.task_start = {0, n};
-    out.task_columns.resize(n);
-    for (int32_t k = 0; k < n; ++k) out.task_columns[k] = k;
-    return;
-  }
-  std::vector<int64_t> subtree_work(column_work);
-  std::vector<std::vector<int32_t>> children(n);
-  std::vector<int32_t> subtrees;
-  for (int32_t k = 0; k < n; ++k) {  // parent[k] > k: a subtree is complete before its root
-    if (parent[k] < 0) {
-      subtrees.push_back(k);
-      continue;
-    }
-    subtree_work[parent[k]] += subtree_work[k];
-    children[parent[k]].push_back(k);
-  }
-  auto heavier = [&](int32_t a, int32_t b) {
-    return subtree_work[a] > subtree_work[b] || (subtree_work[a] == subtree_work[b] && a < b);
-  };
-  std::vector<char> is_top(n, 0);
-  while (static_cast<int32_t>(subtrees.size()) < params.tasks) {
-    const auto heaviest = std::min_element(subtrees.begin(), subtrees.end(), heavier);
-    const int32_t node = *heaviest;
-    if (children[node].empty()) break;
-    is_top[node] = 1;
-    subtrees.erase(heaviest);
-    subtrees.insert(subtrees.end(), children[node].begin(), children[node].end());
-  }
-  std::sort(subtrees.begin(), subtrees.end(), heavier);
-  const int32_t bins = std::min<int32_t>(params.tasks, static_cast<int32_t>(subtrees.size()));
-  std::vector<int64_t> bin_work(bins, 0);
-  std::vector<int32_t> task_of(n, -1);
-  for (int32_t root : subtrees) {
-    const auto bin = std::min_element(bin_work.begin(), bin_work.end()) - bin_work.begin();
-    bin_work[bin] += subtree_work[root];
-    task_of[root] = static_cast<int32_t>(bin);
-  }
-  for (int32_t k = n - 1; k >= 0; --k)  // descendants take their subtree root's task
-    if (task_of[k] < 0 && !is_top[k] && parent[k] >= 0) task_of[k] = task_of[parent[k]];
-  out.task_start.assign(bins + 1, 0);
-  for (int32_t k = 0; k < n; ++k)
-    if (task_of[k] >= 0) ++out.task_start[task_of[k] + 1];
-  for (int32_t t = 0; t < bins; ++t) out.task_start[t + 1] += out.task_start[t];
-  out.task_columns.resize(out.task_start[bins]);
-  std::vector<int32_t> next(out.task_start.begin(), out.task_start.end() - 1);
-  for (int32_t k = 0; k < n; ++k) {
-    if (task_of[k] >= 0)
-      out.task_columns[next[task_of[k]]++] = k;
-    else
-      out.top_columns.push_back(k);
-  }
-}
-
-// Row k of L and the pivot D_k: a sparse triangular solve L(0:k, 0:k) Y = A(0:k, k) in topological order
-// (Davis' ldl_numeric over blocks), with the row pattern and slots precomputed. False on a pivot block that
-// is not symmetric positive definite (the matrix is not, or lost it to rounding) or not finite.
-bool factor_column(const std::vector<Mat3>& values, int32_t k, std::vector<Mat3>& y, BlockLdlt& s) {
-  for (int32_t q = s.column_start[k]; q < s.column_start[k + 1]; ++q) y[s.column_row[q]] = values[s.column_key[q]];
-  Mat3 d = values[s.diagonal_key[k]];
-  for (int32_t t = s.pattern_start[k]; t < s.pattern_start[k + 1]; ++t) {
-    const int32_t i = s.pattern_column[t], slot = s.pattern_slot[t];
-    const Mat3 yi = y[i];
-    y[i].setZero();
-    for (int32_t p = s.l_start[i]; p < slot; ++p) y[s.l_row[p]].noalias() -= s.l_blocks[p] * yi;
-    const Mat3 lki = yi.transpose() * s.d_inverse[i];  // L(k, i) = Y_iᵀ D_i⁻¹ (D_i symmetric)
-    d.noalias() -= lki * yi;
-    s.l_blocks[slot] = lki;
-  }
-  d = 0.5 * (d + d.transpose());
-  const Eigen::LLT<Mat3> pivot(d);
-  if (pivot.info() != Eigen::Success || !d.allFinite()) return false;
-  s.d_inverse[k] = d.inverse();  // closed-form 3x3 (cofactors); d is known SPD here
-  return true;
-}
+using Panel = Eigen::Map<Eigen::MatrixXd>;
+using ConstPanel = Eigen::Map<const Eigen::MatrixXd>;
+using PanelBlock = Eigen::Map<Mat3, Eigen::Unaligned, Eigen::OuterStride<>>;
 
 // The vertex graph (off-diagonal keys) in compressed rows.
 struct VertexGraph {
@@ -221,35 +139,37 @@ std::vector<int32_t> minimum_degree_order(int32_t n, const VertexGraph& g) {
 
 // The upper part of the permuted matrix by columns (counting sort, key order kept inside a column), the
 // elimination tree and the column counts of L (Davis' ldl_symbolic). Returns the block updates.
+struct UpperPattern {
+  std::vector<int32_t> column_start, column_row, column_key, diagonal_key;
+};
+
 int64_t permute_and_count(int32_t n, const std::vector<std::pair<int32_t, int32_t>>& keys,
-                          const std::vector<int32_t>& order, BlockLdlt& out, std::vector<int32_t>& parent,
+                          const std::vector<int32_t>& order, UpperPattern& upper, std::vector<int32_t>& parent,
                           std::vector<int32_t>& count) {
   std::vector<int32_t> rank(n);
   for (int32_t k = 0; k < n; ++k) rank[order[k]] = k;
-  out.diagonal_key.assign(n, -1);
-  out.column_start.assign(n + 1, 0);
+  upper.column_start.assign(n + 1, 0);
   for (const auto& [r, c] : keys)
-    if (rank[r] < rank[c]) ++out.column_start[rank[c] + 1];
-  for (int32_t k = 0; k < n; ++k) out.column_start[k + 1] += out.column_start[k];
-  out.column_row.resize(out.column_start[n]);
-  out.column_key.resize(out.column_start[n]);
-  {
-    std::vector<int32_t> next(out.column_start.begin(), out.column_start.end() - 1);
-    for (int32_t b = 0; b < static_cast<int32_t>(keys.size()); ++b) {
-      const int32_t i = rank[keys[b].first], k = rank[keys[b].second];
-      if (i == k) out.diagonal_key[k] = b;
-      if (i >= k) continue;
-      out.column_row[next[k]] = i;
-      out.column_key[next[k]++] = b;
-    }
+    if (rank[r] < rank[c]) ++upper.column_start[rank[c] + 1];
+  for (int32_t k = 0; k < n; ++k) upper.column_start[k + 1] += upper.column_start[k];
+  upper.column_row.resize(upper.column_start[n]);
+  upper.column_key.resize(upper.column_start[n]);
+  upper.diagonal_key.assign(n, -1);
+  std::vector<int32_t> next(upper.column_start.begin(), upper.column_start.end() - 1);
+  for (int32_t b = 0; b < static_cast<int32_t>(keys.size()); ++b) {
+    const int32_t i = rank[keys[b].first], k = rank[keys[b].second];
+    if (i == k) upper.diagonal_key[k] = b;
+    if (i >= k) continue;
+    upper.column_row[next[k]] = i;
+    upper.column_key[next[k]++] = b;
   }
   parent.assign(n, -1);
   count.assign(n, 0);
   std::vector<int32_t> flag(n, -1);
   for (int32_t k = 0; k < n; ++k) {
     flag[k] = k;
-    for (int32_t q = out.column_start[k]; q < out.column_start[k + 1]; ++q)
-      for (int32_t i = out.column_row[q]; flag[i] != k; i = parent[i]) {
+    for (int32_t q = upper.column_start[k]; q < upper.column_start[k + 1]; ++q)
+      for (int32_t i = upper.column_row[q]; flag[i] != k; i = parent[i]) {
         if (parent[i] == -1) parent[i] = k;
         ++count[i];
         flag[i] = k;
@@ -260,42 +180,103 @@ int64_t permute_and_count(int32_t n, const std::vector<std::pair<int32_t, int32_
   return updates;
 }
 
-}  // namespace
-
-void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>>& keys, const BlockLdltParams& params,
-                        BlockLdlt& out, const std::vector<Eigen::Vector2d>& coordinates) {
-  out = BlockLdlt{};
-  out.n = n;
-
-  // Ordering: AMD, or nested dissection when coordinates are given and it needs fewer block updates
-  // (AMD wins below a couple of thousand vertices).
-  const VertexGraph graph = vertex_graph(n, keys);
-  std::vector<int32_t> parent, count;
-  out.order = minimum_degree_order(n, graph);
-  out.block_updates = permute_and_count(n, keys, out.order, out, parent, count);
-  if (static_cast<int32_t>(coordinates.size()) == n && n >= params.min_dissection_blocks) {
-    Dissection nd{graph, coordinates, params.dissection_leaf, std::vector<int32_t>(n, 0), std::vector<int32_t>(n), {}};
-    std::vector<int32_t> all(n);
-    for (int32_t i = 0; i < n; ++i) all[i] = i;
-    nd.order.reserve(n);
-    nd.dissect(std::move(all));
-    BlockLdlt trial;
-    std::vector<int32_t> trial_parent, trial_count;
-    const int64_t updates = permute_and_count(n, keys, nd.order, trial, trial_parent, trial_count);
-    if (updates < out.block_updates) {
-      out.order = std::move(nd.order);
-      out.block_updates = updates;
-      out.column_start = std::move(trial.column_start);
-      out.column_row = std::move(trial.column_row);
-      out.column_key = std::move(trial.column_key);
-      out.diagonal_key = std::move(trial.diagonal_key);
-      parent = std::move(trial_parent);
-      count = std::move(trial_count);
-    }
+// Splits the elimination tree (of columns or supernodes) into disjoint subtrees of similar work, summed
+// over the subtree: starting from the roots, the heaviest subtree is replaced by its children, its root
+// joining the top, until there are `params.tasks` subtrees or the heaviest is a leaf. The top is the
+// chain of the last separators, one node after the other (a supernode's fixed row chunks over the
+// threads). The subtrees are then packed into at most `params.tasks` bins, heaviest first into the
+// lightest bin. With nested dissection the first split is the two halves of the sheet.
+void split_into_subtrees(const std::vector<int32_t>& parent, const std::vector<double>& work, int32_t blocks,
+                         const BlockLdltParams& params, BlockLdlt& out) {
+  const int32_t n = static_cast<int32_t>(parent.size());
+  out.task_start.clear();
+  out.task_nodes.clear();
+  out.top_nodes.clear();
+  if (blocks < params.min_parallel_blocks || params.tasks < 2) {
+    out.task_start = {0, n};
+    out.task_nodes.resize(n);
+    for (int32_t k = 0; k < n; ++k) out.task_nodes[k] = k;
+    return;
   }
+  std::vector<double> subtree_work(work);
+  std::vector<std::vector<int32_t>> children(n);
+  std::vector<int32_t> subtrees;
+  for (int32_t k = 0; k < n; ++k) {  // parent[k] > k: a subtree is complete before its root
+    if (parent[k] < 0) {
+      subtrees.push_back(k);
+      continue;
+    }
+    subtree_work[parent[k]] += subtree_work[k];
+    children[parent[k]].push_back(k);
+  }
+  auto heavier = [&](int32_t a, int32_t b) {
+    return subtree_work[a] > subtree_work[b] || (subtree_work[a] == subtree_work[b] && a < b);
+  };
+  std::vector<char> is_top(n, 0);
+  while (static_cast<int32_t>(subtrees.size()) < params.tasks) {
+    const auto heaviest = std::min_element(subtrees.begin(), subtrees.end(), heavier);
+    const int32_t node = *heaviest;
+    if (children[node].empty()) break;
+    is_top[node] = 1;
+    subtrees.erase(heaviest);
+    subtrees.insert(subtrees.end(), children[node].begin(), children[node].end());
+  }
+  std::sort(subtrees.begin(), subtrees.end(), heavier);
+  const int32_t bins = std::min<int32_t>(params.tasks, static_cast<int32_t>(subtrees.size()));
+  std::vector<double> bin_work(bins, 0);
+  std::vector<int32_t> task_of(n, -1);
+  for (int32_t root : subtrees) {
+    const auto bin = std::min_element(bin_work.begin(), bin_work.end()) - bin_work.begin();
+    bin_work[bin] += subtree_work[root];
+    task_of[root] = static_cast<int32_t>(bin);
+  }
+  for (int32_t k = n - 1; k >= 0; --k)  // descendants take their subtree root's task
+    if (task_of[k] < 0 && !is_top[k] && parent[k] >= 0) task_of[k] = task_of[parent[k]];
+  out.task_start.assign(bins + 1, 0);
+  for (int32_t k = 0; k < n; ++k)
+    if (task_of[k] >= 0) ++out.task_start[task_of[k] + 1];
+  for (int32_t t = 0; t < bins; ++t) out.task_start[t + 1] += out.task_start[t];
+  out.task_nodes.resize(out.task_start[bins]);
+  std::vector<int32_t> next(out.task_start.begin(), out.task_start.end() - 1);
+  for (int32_t k = 0; k < n; ++k) {
+    if (task_of[k] >= 0)
+      out.task_nodes[next[task_of[k]]++] = k;
+    else
+      out.top_nodes.push_back(k);
+  }
+}
 
-  // The row patterns of L in topological order with the slot each entry lands in (ldl_numeric's reach,
-  // done once here).
+// Column path. Row k of L and the pivot D_k: a sparse triangular solve L(0:k, 0:k) Y = A(0:k, k) in
+// topological order (Davis' ldl_numeric over blocks), with the row pattern and slots precomputed. False on
+// a pivot block that is not symmetric positive definite (the matrix is not, or lost it to rounding) or
+// not finite.
+bool factor_column(const std::vector<Mat3>& values, int32_t k, std::vector<Mat3>& y, ColumnFactor& s) {
+  for (int32_t q = s.column_start[k]; q < s.column_start[k + 1]; ++q) y[s.column_row[q]] = values[s.column_key[q]];
+  Mat3 d = values[s.diagonal_key[k]];
+  for (int32_t t = s.pattern_start[k]; t < s.pattern_start[k + 1]; ++t) {
+    const int32_t i = s.pattern_column[t], slot = s.pattern_slot[t];
+    const Mat3 yi = y[i];
+    y[i].setZero();
+    for (int32_t p = s.l_start[i]; p < slot; ++p) y[s.l_row[p]].noalias() -= s.l_blocks[p] * yi;
+    const Mat3 lki = yi.transpose() * s.d_inverse[i];  // L(k, i) = Y_iᵀ D_i⁻¹ (D_i symmetric)
+    d.noalias() -= lki * yi;
+    s.l_blocks[slot] = lki;
+  }
+  d = 0.5 * (d + d.transpose());
+  const Eigen::LLT<Mat3> pivot(d);
+  if (pivot.info() != Eigen::Success || !d.allFinite()) return false;
+  s.d_inverse[k] = d.inverse();  // closed-form 3x3 (cofactors); d is known SPD here
+  return true;
+}
+
+// Column path: the row patterns of L in topological order with the slot each entry lands in
+// (ldl_numeric's reach, done once here). Fills `work` with the block updates of each column.
+void analyze_columns(int32_t n, UpperPattern&& upper, const std::vector<int32_t>& parent,
+                     const std::vector<int32_t>& count, ColumnFactor& out, std::vector<double>& work) {
+  out.column_start = std::move(upper.column_start);
+  out.column_row = std::move(upper.column_row);
+  out.column_key = std::move(upper.column_key);
+  out.diagonal_key = std::move(upper.diagonal_key);
   out.l_start.assign(n + 1, 0);
   for (int32_t k = 0; k < n; ++k) out.l_start[k + 1] = out.l_start[k] + count[k];
   out.l_row.resize(out.l_start[n]);
@@ -303,7 +284,7 @@ void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>
   out.pattern_column.reserve(out.l_start[n]);
   out.pattern_slot.reserve(out.l_start[n]);
   std::vector<int32_t> filled(n, 0), stack(n), path(n), flag(n, -1);
-  std::vector<int64_t> column_work(n, 1);  // block updates of each column, for the task split
+  work.assign(n, 1);
   for (int32_t k = 0; k < n; ++k) {
     int32_t top = n;
     flag[k] = k;
@@ -321,51 +302,403 @@ void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>
       out.l_row[slot] = k;
       out.pattern_column.push_back(i);
       out.pattern_slot.push_back(slot);
-      column_work[k] += slot - out.l_start[i] + 2;
+      work[k] += slot - out.l_start[i] + 2;
     }
     out.pattern_start[k + 1] = static_cast<int32_t>(out.pattern_column.size());
   }
   out.l_blocks.assign(out.l_start[n], Mat3::Zero());
   out.d_inverse.assign(n, Mat3::Zero());
-  split_into_subtrees(parent, column_work, params, out);
-  out.work.assign(out.task_start.size(), std::vector<Mat3>(n, Mat3::Zero()));
 }
 
-bool factorize_block_ldlt(const std::vector<Mat3>& values, const RangeRunner& run, BlockLdlt& s) {
-  s.factorized = false;
-  const int32_t tasks = static_cast<int32_t>(s.task_start.size()) - 1;
+// Supernodal path. The rows of supernode `s`'s panel in chunk `c`: zeroed, A assembled, then every
+// descendant's update (in increasing descendant order, whoever runs the chunk), C = L_d(rows in chunk)
+// L_d(rows in s)ᵀ by a dense product, scattered by block. `position` maps a factor index to its row in s
+// (set by the caller).
+void update_chunk(const std::vector<Mat3>& values, int32_t s, int32_t c, const std::vector<int32_t>& position,
+                  std::vector<double>& product, SupernodalFactor& f) {
+  const int32_t rows = f.row_start[s + 1] - f.row_start[s], first_column = f.super_start[s];
+  const int32_t r0 = f.chunk_begin[c], r1 = f.chunk_begin[c + 1];
+  const int64_t ld = 3 * rows;
+  double* panel = f.panel.data() + f.panel_start[s];
+  Panel(panel, ld, 3 * (f.super_start[s + 1] - first_column)).middleRows(3 * r0, 3 * (r1 - r0)).setZero();
+  for (int32_t e = f.assembly_start[c]; e < f.assembly_start[c + 1]; ++e)
+    PanelBlock(panel + f.assembly_offset[e], 3, 3, Eigen::OuterStride<>(ld)) = values[f.assembly_key[e]];
+  const bool whole = r0 == 0 && r1 == rows;
+  const int32_t* s_rows = f.super_row.data() + f.row_start[s];
+  for (int32_t u = f.update_start[s]; u < f.update_start[s + 1]; ++u) {
+    const int32_t d = f.update_source[u], first = f.update_first[u], last = f.update_last[u];
+    const int32_t d_end = f.row_start[d + 1];
+    const int32_t* d_rows = f.super_row.data();
+    // The descendant's rows that land in [r0, r1): contiguous, as both row lists are ascending.
+    const int32_t a0 = whole || r0 == 0 ? first
+                                        : static_cast<int32_t>(std::lower_bound(d_rows + first, d_rows + d_end,
+                                                                                s_rows[r0]) - d_rows);
+    const int32_t a1 = whole || r1 == rows ? d_end
+                                           : static_cast<int32_t>(std::lower_bound(d_rows + a0, d_rows + d_end,
+                                                                                   s_rows[r1]) - d_rows);
+    if (a1 <= a0) continue;
+    const int32_t d_rows_count = d_end - f.row_start[d], d_columns = f.super_start[d + 1] - f.super_start[d];
+    const ConstPanel ld_panel(f.panel.data() + f.panel_start[d], 3 * d_rows_count, 3 * d_columns);
+    const int32_t m = a1 - a0, k = last - first;
+    const auto rows_of = [&](int32_t a, int32_t count) {
+      return ld_panel.middleRows(3 * (a - f.row_start[d]), 3 * count);
+    };
+    product.resize(static_cast<size_t>(9) * m * k);
+    Panel cp(product.data(), 3 * m, 3 * k);
+    // With the whole diagonal part in the chunk, only its lower triangle is computed (rows of s's own
+    // columns: the upper one is never read), the rows below by a general product.
+    const bool triangle = a0 == first && a1 >= last;
+    if (triangle) {
+      cp.topRows(3 * k).triangularView<Eigen::Lower>() = rows_of(first, k) * rows_of(first, k).transpose();
+      if (a1 > last)
+        cp.bottomRows(3 * (a1 - last)).noalias() = rows_of(last, a1 - last) * rows_of(first, k).transpose();
+    } else {
+      cp.noalias() = rows_of(a0, m) * rows_of(first, k).transpose();
+    }
+    for (int32_t b = 0; b < k; ++b) {
+      const int32_t column = d_rows[first + b] - first_column;
+      double* target = panel + 3 * column * ld;
+      int32_t a = std::max(a0, first + b);  // lower part only
+      if (a == first + b && a < a1) {       // a diagonal block: its lower triangle
+        PanelBlock(target + 3 * position[d_rows[a]], 3, 3, Eigen::OuterStride<>(ld)).triangularView<Eigen::Lower>() -=
+            cp.block<3, 3>(3 * (a - a0), 3 * b);
+        ++a;
+      }
+      for (; a < a1; ++a)
+        PanelBlock(target + 3 * position[d_rows[a]], 3, 3, Eigen::OuterStride<>(ld)) -=
+            cp.block<3, 3>(3 * (a - a0), 3 * b);
+    }
+  }
+}
+
+// The diagonal block of supernode `s` by a dense Cholesky, in place. False on a pivot that is not
+// positive (the matrix is not SPD, or lost it to rounding) or not finite.
+bool factor_diagonal(int32_t s, SupernodalFactor& f) {
+  const int32_t rows = f.row_start[s + 1] - f.row_start[s], width = 3 * (f.super_start[s + 1] - f.super_start[s]);
+  Panel panel(f.panel.data() + f.panel_start[s], 3 * rows, width);
+  Eigen::Ref<Eigen::MatrixXd> diagonal = panel.topRows(width);
+  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(diagonal);
+  return llt.info() == Eigen::Success && diagonal.diagonal().allFinite();
+}
+
+// The rows of chunk `c` below the diagonal block: L_below = A_below L_ss⁻ᵀ.
+void solve_chunk(int32_t s, int32_t c, SupernodalFactor& f) {
+  const int32_t rows = f.row_start[s + 1] - f.row_start[s], columns = f.super_start[s + 1] - f.super_start[s];
+  const int32_t r0 = std::max(f.chunk_begin[c], columns), r1 = f.chunk_begin[c + 1];
+  if (r1 <= r0) return;
+  Panel panel(f.panel.data() + f.panel_start[s], 3 * rows, 3 * columns);
+  auto below = panel.middleRows(3 * r0, 3 * (r1 - r0));
+  panel.topRows(3 * columns).triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(below);
+}
+
+void set_positions(int32_t s, const SupernodalFactor& f, std::vector<int32_t>& position) {
+  for (int32_t q = f.row_start[s]; q < f.row_start[s + 1]; ++q) position[f.super_row[q]] = q - f.row_start[s];
+}
+
+// Supernodal path: supernodes, their row lists, the descendant updates, row chunks and the assembly of A.
+// Fills `work` (flops per supernode) and `super_parent` (the supernodal elimination tree).
+void analyze_supernodes(int32_t n, const std::vector<std::pair<int32_t, int32_t>>& keys,
+                        const std::vector<int32_t>& order, const UpperPattern& upper,
+                        const std::vector<int32_t>& parent,
+                        const std::vector<int32_t>& count, const BlockLdltParams& params, SupernodalFactor& out,
+                        std::vector<double>& work, std::vector<int32_t>& super_parent) {
+  // Supernodes: column k joins the supernode of k − 1 when k is k − 1's parent; every column j of the
+  // run then takes the pattern {j+1 .. last} ∪ pattern(last), its own pattern (fundamental supernode,
+  // no zeros) or a superset of it (relaxed, explicit zeros). Relaxed as CHOLMOD does: any run of up to
+  // 4 columns, up to 16 with at most 80% zeros, up to 48 with 10%, else 5%. Panels of a few columns and
+  // dense products beat many 1-column updates. Capped in width so a separator becomes several panels
+  // whose mutual updates split into row chunks like any other.
+  std::vector<int32_t> super_of(n);
+  out.super_start.clear();
+  for (int32_t k = 0; k < n; ++k) {
+    bool joins = k > 0 && parent[k - 1] == k && k + 1 - out.super_start.back() <= params.supernode_width;
+    if (joins) {
+      const int32_t first = out.super_start.back(), width = k + 1 - first;
+      int64_t zeros = 0, entries = 0;
+      for (int32_t j = first; j <= k; ++j) {
+        entries += k - j + 1 + count[k];
+        zeros += k - j + count[k] - count[j];
+      }
+      const double fraction = static_cast<double>(zeros) / static_cast<double>(entries);
+      joins = zeros == 0 || width <= 4 || (width <= 16 && fraction <= 0.8) || (width <= 48 && fraction <= 0.1) ||
+              fraction <= 0.05;
+    }
+    if (!joins) out.super_start.push_back(k);
+    super_of[k] = static_cast<int32_t>(out.super_start.size()) - 1;
+  }
+  const int32_t supernodes = static_cast<int32_t>(out.super_start.size());
+  out.super_start.push_back(n);
+
+  // Row pattern of each supernode's last column (the rows below the panel's diagonal block): the row
+  // subtrees of the etree (ldl_numeric's reach), collected for the columns that are last in a supernode.
+  std::vector<std::vector<int32_t>> below(supernodes);
+  {
+    std::vector<int32_t> flag(n, -1);
+    for (int32_t k = 0; k < n; ++k) {
+      flag[k] = k;
+      for (int32_t q = upper.column_start[k]; q < upper.column_start[k + 1]; ++q)
+        for (int32_t i = upper.column_row[q]; flag[i] != k; i = parent[i]) {
+          flag[i] = k;
+          if (i + 1 == out.super_start[super_of[i] + 1]) below[super_of[i]].push_back(k);
+        }
+    }
+  }
+  out.row_start.assign(supernodes + 1, 0);
+  out.panel_start.assign(supernodes + 1, 0);
+  out.super_row.clear();
+  for (int32_t s = 0; s < supernodes; ++s) {
+    const int32_t columns = out.super_start[s + 1] - out.super_start[s];
+    for (int32_t k = out.super_start[s]; k < out.super_start[s + 1]; ++k) out.super_row.push_back(k);
+    out.super_row.insert(out.super_row.end(), below[s].begin(), below[s].end());
+    out.row_start[s + 1] = static_cast<int32_t>(out.super_row.size());
+    out.panel_start[s + 1] = out.panel_start[s] + int64_t{9} * columns * (out.row_start[s + 1] - out.row_start[s]);
+  }
+  out.panel.assign(out.panel_start[supernodes], 0.0);
+
+  // Updates: descendant d touches supernode s through its rows that are s's columns (a contiguous run of
+  // d's ascending rows); listed per s in increasing d, the order every factorisation applies them in.
+  work.assign(supernodes, 0.0);  // flops, for the chunks and the task split
+  {
+    std::vector<int32_t> per(supernodes + 1, 0);
+    std::vector<std::array<int32_t, 4>> found;  // (s, d, first, last)
+    for (int32_t d = 0; d < supernodes; ++d) {
+      const int32_t d_columns = out.super_start[d + 1] - out.super_start[d];
+      const int32_t d_end = out.row_start[d + 1];
+      for (int32_t q = out.row_start[d] + d_columns; q < d_end;) {
+        const int32_t s = super_of[out.super_row[q]];
+        int32_t last = q;
+        while (last < d_end && out.super_row[last] < out.super_start[s + 1]) ++last;
+        found.push_back({s, d, q, last});
+        ++per[s + 1];
+        work[s] += 54.0 * d_columns * (d_end - q) * (last - q);
+        q = last;
+      }
+      const double w = 3.0 * d_columns;
+      work[d] += w * w * w / 3 + w * w * 3.0 * (d_end - out.row_start[d] - d_columns);
+    }
+    for (int32_t s = 0; s < supernodes; ++s) per[s + 1] += per[s];
+    out.update_start = per;
+    out.update_source.resize(found.size());
+    out.update_first.resize(found.size());
+    out.update_last.resize(found.size());
+    for (const auto& [s, d, first, last] : found) {  // found is in increasing d: stable per s
+      const int32_t u = per[s]++;
+      out.update_source[u] = d;
+      out.update_first[u] = first;
+      out.update_last[u] = last;
+    }
+  }
+
+  // Row chunks: a supernode with more than `chunk_flops` of work is split into up to `max_chunks` runs of
+  // rows of equal length, by its structure alone, so the arithmetic of every entry is the same whether
+  // the chunks run on one thread or several, and whatever the task split. Supernode s's chunks begin at
+  // chunk_begin[chunk_first[s] ..], followed by one entry for the end of its last chunk (its row count).
+  out.chunk_first.assign(supernodes + 1, 0);
+  out.chunk_begin.clear();
+  for (int32_t s = 0; s < supernodes; ++s) {
+    const int32_t rows = out.row_start[s + 1] - out.row_start[s];
+    const int32_t chunks = std::clamp(static_cast<int32_t>(work[s] / params.chunk_flops), 1,
+                                      std::min(params.max_chunks, rows));
+    for (int32_t c = 0; c <= chunks; ++c) out.chunk_begin.push_back(static_cast<int32_t>(int64_t{rows} * c / chunks));
+    out.chunk_first[s + 1] = static_cast<int32_t>(out.chunk_begin.size());
+  }
+
+  // Assembly of A into the panels, per chunk: each lower block (i ≥ k in factor order) of the matrix.
+  {
+    std::vector<int32_t> rank(n), position(n);
+    for (int32_t k = 0; k < n; ++k) rank[order[k]] = k;
+    std::vector<std::vector<int32_t>> keys_of(supernodes);
+    for (int32_t b = 0; b < static_cast<int32_t>(keys.size()); ++b)
+      if (rank[keys[b].first] >= rank[keys[b].second]) keys_of[super_of[rank[keys[b].second]]].push_back(b);
+    const int32_t chunk_slots = out.chunk_first[supernodes];
+    std::vector<std::vector<std::pair<int64_t, int32_t>>> per_chunk(chunk_slots);
+    for (int32_t s = 0; s < supernodes; ++s) {
+      set_positions(s, out, position);
+      const int64_t ld = 3 * int64_t{out.row_start[s + 1] - out.row_start[s]};
+      for (int32_t b : keys_of[s]) {
+        const int32_t i = position[rank[keys[b].first]], k = rank[keys[b].second] - out.super_start[s];
+        int32_t c = out.chunk_first[s];
+        while (out.chunk_begin[c + 1] <= i) ++c;
+        per_chunk[c].emplace_back(3 * k * ld + 3 * i, b);
+      }
+    }
+    out.assembly_start.assign(chunk_slots + 1, 0);
+    for (int32_t c = 0; c < chunk_slots; ++c) {
+      out.assembly_start[c + 1] = out.assembly_start[c] + static_cast<int32_t>(per_chunk[c].size());
+      for (const auto& [offset, b] : per_chunk[c]) {
+        out.assembly_offset.push_back(offset);
+        out.assembly_key.push_back(b);
+      }
+    }
+  }
+
+  super_parent.assign(supernodes, -1);
+  for (int32_t s = 0; s < supernodes; ++s) {
+    const int32_t last = out.super_start[s + 1] - 1;
+    if (parent[last] >= 0) super_parent[s] = super_of[parent[last]];
+  }
+}
+
+
+}  // namespace
+
+void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>>& keys, const BlockLdltParams& params,
+                        BlockLdlt& out, const std::vector<Eigen::Vector2d>& coordinates) {
+  out = BlockLdlt{};
+  out.n = n;
+
+  // Ordering: AMD, or nested dissection when coordinates are given and it needs fewer block updates
+  // (AMD wins below a couple of thousand vertices).
+  const VertexGraph graph = vertex_graph(n, keys);
+  UpperPattern upper;
+  std::vector<int32_t> parent, count;
+  out.order = minimum_degree_order(n, graph);
+  out.block_updates = permute_and_count(n, keys, out.order, upper, parent, count);
+  if (static_cast<int32_t>(coordinates.size()) == n && n >= params.min_dissection_blocks) {
+    Dissection nd{graph, coordinates, params.dissection_leaf, std::vector<int32_t>(n, 0), std::vector<int32_t>(n), {}};
+    std::vector<int32_t> all(n);
+    for (int32_t i = 0; i < n; ++i) all[i] = i;
+    nd.order.reserve(n);
+    nd.dissect(std::move(all));
+    UpperPattern trial;
+    std::vector<int32_t> trial_parent, trial_count;
+    const int64_t updates = permute_and_count(n, keys, nd.order, trial, trial_parent, trial_count);
+    if (updates < out.block_updates) {
+      out.order = std::move(nd.order);
+      out.block_updates = updates;
+      upper = std::move(trial);
+      parent = std::move(trial_parent);
+      count = std::move(trial_count);
+    }
+  }
+  for (int32_t k = 0; k < n; ++k) out.fill_blocks += count[k];
+
+  std::vector<double> work;  // per node, for the task split
+  std::vector<int32_t> node_parent;
+  out.supernodal = n >= params.min_supernodal_blocks;
+  if (out.supernodal) {
+    analyze_supernodes(n, keys, out.order, upper, parent, count, params, out.supernodes, work, node_parent);
+    out.supernodes.position.assign(0, {});
+  } else {
+    analyze_columns(n, std::move(upper), parent, count, out.columns, work);
+    node_parent = parent;
+  }
+  split_into_subtrees(node_parent, work, n, params, out);
+  if (out.supernodal)
+    out.supernodes.position.assign(out.task_start.size(), std::vector<int32_t>(n, 0));
+  else
+    out.columns.work.assign(out.task_start.size(), std::vector<Mat3>(n, Mat3::Zero()));
+}
+
+namespace {
+
+bool factorize_columns(const std::vector<Mat3>& values, const RangeRunner& run, BlockLdlt& f) {
+  ColumnFactor& c = f.columns;
+  const int32_t tasks = static_cast<int32_t>(f.task_start.size()) - 1;
   std::vector<char> ok(tasks + 1, 1);
   auto factor_columns = [&](const std::vector<int32_t>& columns, int32_t first, int32_t last, int32_t slot) {
-    std::vector<Mat3>& y = s.work[slot];
-    for (int32_t c = first; c < last; ++c)
-      if (!factor_column(values, columns[c], y, s)) {
+    std::vector<Mat3>& y = c.work[slot];
+    for (int32_t q = first; q < last; ++q)
+      if (!factor_column(values, columns[q], y, c)) {
         for (Mat3& m : y) m.setZero();  // leave the workspace clean for the next factorisation
         ok[slot] = 0;
         return;
       }
   };
   run(tasks, 1, [&](int32_t begin, int32_t end) {
-    for (int32_t t = begin; t < end; ++t) factor_columns(s.task_columns, s.task_start[t], s.task_start[t + 1], t);
+    for (int32_t t = begin; t < end; ++t) factor_columns(f.task_nodes, f.task_start[t], f.task_start[t + 1], t);
   });
   for (int32_t t = 0; t < tasks; ++t)
     if (!ok[t]) return false;
-  factor_columns(s.top_columns, 0, static_cast<int32_t>(s.top_columns.size()), tasks);
-  s.factorized = ok[tasks] != 0;
-  return s.factorized;
+  factor_columns(f.top_nodes, 0, static_cast<int32_t>(f.top_nodes.size()), tasks);
+  return ok[tasks] != 0;
 }
 
-void solve_block_ldlt(const BlockLdlt& s, const double* b, double* x) {
+bool factorize_supernodes(const std::vector<Mat3>& values, const RangeRunner& run, BlockLdlt& f) {
+  SupernodalFactor& sf = f.supernodes;
+  const int32_t tasks = static_cast<int32_t>(f.task_start.size()) - 1;
+  thread_local std::vector<double> product;  // scratch of the dense products, fully overwritten at each use
+  std::vector<char> ok(tasks, 1);
+  // A subtree task runs its supernodes one after the other, each chunk in order.
+  run(tasks, 1, [&](int32_t begin, int32_t end) {
+    for (int32_t t = begin; t < end; ++t) {
+      std::vector<int32_t>& position = sf.position[t];
+      for (int32_t q = f.task_start[t]; q < f.task_start[t + 1]; ++q) {
+        const int32_t s = f.task_nodes[q];
+        set_positions(s, sf, position);
+        for (int32_t c = sf.chunk_first[s]; c + 1 < sf.chunk_first[s + 1]; ++c)
+          update_chunk(values, s, c, position, product, sf);
+        if (!factor_diagonal(s, sf)) {
+          ok[t] = 0;
+          break;
+        }
+        for (int32_t c = sf.chunk_first[s]; c + 1 < sf.chunk_first[s + 1]; ++c) solve_chunk(s, c, sf);
+      }
+    }
+  });
+  for (int32_t t = 0; t < tasks; ++t)
+    if (!ok[t]) return false;
+  // The top: supernode after supernode, the chunks of each over the threads.
+  std::vector<int32_t>& position = sf.position[tasks];
+  for (int32_t s : f.top_nodes) {
+    set_positions(s, sf, position);
+    const int32_t first = sf.chunk_first[s], chunks = sf.chunk_first[s + 1] - first - 1;
+    run(chunks, 1, [&](int32_t begin, int32_t end) {
+      for (int32_t c = begin; c < end; ++c) update_chunk(values, s, first + c, position, product, sf);
+    });
+    if (!factor_diagonal(s, sf)) return false;
+    run(chunks, 1, [&](int32_t begin, int32_t end) {
+      for (int32_t c = begin; c < end; ++c) solve_chunk(s, first + c, sf);
+    });
+  }
+  return true;
+}
+
+}  // namespace
+
+bool factorize_block_ldlt(const std::vector<Mat3>& values, const RangeRunner& run, BlockLdlt& f) {
+  f.factorized = f.supernodal ? factorize_supernodes(values, run, f) : factorize_columns(values, run, f);
+  return f.factorized;
+}
+
+void solve_block_ldlt(const BlockLdlt& f, const double* b, double* x) {
   using Vec3 = Eigen::Vector3d;
-  thread_local std::vector<Vec3> z;
-  z.resize(s.n);
-  for (int32_t k = 0; k < s.n; ++k) z[k] = Eigen::Map<const Vec3>(b + 3 * s.order[k]);
-  for (int32_t i = 0; i < s.n; ++i)  // L z = b
-    for (int32_t p = s.l_start[i]; p < s.l_start[i + 1]; ++p) z[s.l_row[p]].noalias() -= s.l_blocks[p] * z[i];
-  for (int32_t i = 0; i < s.n; ++i) z[i] = s.d_inverse[i] * z[i];
-  for (int32_t i = s.n - 1; i >= 0; --i)  // Lᵀ x = D⁻¹ z
-    for (int32_t p = s.l_start[i]; p < s.l_start[i + 1]; ++p)
-      z[i].noalias() -= s.l_blocks[p].transpose() * z[s.l_row[p]];
-  for (int32_t k = 0; k < s.n; ++k) Eigen::Map<Vec3>(x + 3 * s.order[k]) = z[k];
+  thread_local Eigen::VectorXd z, t;
+  z.resize(3 * f.n);
+  for (int32_t k = 0; k < f.n; ++k) z.segment<3>(3 * k) = Eigen::Map<const Vec3>(b + 3 * f.order[k]);
+  if (!f.supernodal) {
+    const ColumnFactor& c = f.columns;
+    for (int32_t i = 0; i < f.n; ++i)  // L z = b
+      for (int32_t p = c.l_start[i]; p < c.l_start[i + 1]; ++p)
+        z.segment<3>(3 * c.l_row[p]).noalias() -= c.l_blocks[p] * z.segment<3>(3 * i);
+    for (int32_t i = 0; i < f.n; ++i) z.segment<3>(3 * i) = (c.d_inverse[i] * z.segment<3>(3 * i)).eval();
+    for (int32_t i = f.n - 1; i >= 0; --i)  // Lᵀ x = D⁻¹ z
+      for (int32_t p = c.l_start[i]; p < c.l_start[i + 1]; ++p)
+        z.segment<3>(3 * i).noalias() -= c.l_blocks[p].transpose() * z.segment<3>(3 * c.l_row[p]);
+  } else {
+    const SupernodalFactor& sf = f.supernodes;
+    const int32_t supernodes = static_cast<int32_t>(sf.super_start.size()) - 1;
+    for (int32_t s = 0; s < supernodes; ++s) {  // L y = b
+      const int32_t columns = sf.super_start[s + 1] - sf.super_start[s], rows = sf.row_start[s + 1] - sf.row_start[s];
+      const ConstPanel panel(sf.panel.data() + sf.panel_start[s], 3 * rows, 3 * columns);
+      auto y = z.segment(3 * sf.super_start[s], 3 * columns);
+      panel.topRows(3 * columns).triangularView<Eigen::Lower>().solveInPlace(y);
+      t.noalias() = panel.bottomRows(3 * (rows - columns)) * y;
+      for (int32_t q = columns; q < rows; ++q)
+        z.segment<3>(3 * sf.super_row[sf.row_start[s] + q]) -= t.segment<3>(3 * (q - columns));
+    }
+    for (int32_t s = supernodes - 1; s >= 0; --s) {  // Lᵀ x = y
+      const int32_t columns = sf.super_start[s + 1] - sf.super_start[s], rows = sf.row_start[s + 1] - sf.row_start[s];
+      const ConstPanel panel(sf.panel.data() + sf.panel_start[s], 3 * rows, 3 * columns);
+      t.resize(3 * (rows - columns));
+      for (int32_t q = columns; q < rows; ++q)
+        t.segment<3>(3 * (q - columns)) = z.segment<3>(3 * sf.super_row[sf.row_start[s] + q]);
+      auto y = z.segment(3 * sf.super_start[s], 3 * columns);
+      y.noalias() -= panel.bottomRows(3 * (rows - columns)).transpose() * t;
+      panel.topRows(3 * columns).triangularView<Eigen::Lower>().transpose().solveInPlace(y);
+    }
+  }
+  for (int32_t k = 0; k < f.n; ++k) Eigen::Map<Vec3>(x + 3 * f.order[k]) = z.segment<3>(3 * k);
 }
 
 }  // namespace pt

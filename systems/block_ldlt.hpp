@@ -1,16 +1,22 @@
-// Sparse LDLᵀ of a symmetric positive definite matrix made of 3x3 blocks (one block per pair of vertices),
-// the linear solve of the implicit integrator (systems/integrate_implicit.hpp).
+// Sparse factorisation of a symmetric positive definite matrix made of 3x3 blocks (one block per pair of
+// vertices), the linear solve of the implicit integrator (systems/integrate_implicit.hpp).
 //
 // Why not Eigen's SimplicialLDLT: it factors scalar by scalar with an index lookup per multiply-add and
-// re-permutes the whole matrix on every numeric factorisation. The sheet's matrix is a vertex graph with
-// dense 3x3 blocks, so the same up-looking algorithm (Davis, "Algorithm 849: a concise sparse Cholesky
-// factorization package", ACM TOMS 2005) over blocks does one lookup per 27 multiply-adds, and the ordering
-// (approximate minimum degree on the vertex graph), the elimination tree and every row pattern are computed
-// once per structure. L is unit block-lower-triangular, D block diagonal with 3x3 SPD blocks, stored inverted.
+// re-permutes the whole matrix on every numeric factorisation. The ordering (AMD on the vertex graph, or
+// a geometric nested dissection when the vertices' 2D coordinates are given and it needs fewer updates),
+// the elimination tree and every pattern are computed once per structure. Two numeric factors:
+// - below `min_supernodal_blocks`, LDLᵀ by block columns: the up-looking algorithm (Davis, "Algorithm
+//   849: a concise sparse Cholesky factorization package", ACM TOMS 2005) over 3x3 blocks, one lookup
+//   per 27 multiply-adds; fastest on small sheets, where dense kernels do not pay their call overhead;
+// - above, a left-looking supernodal Cholesky L Lᵀ (as CHOLMOD): runs of columns with nested patterns
+//   stored as dense panels, each descendant's update one dense product, the diagonal block by a dense
+//   Cholesky and the rows below by a triangular solve (Eigen's blocked kernels).
 //
-// Parallel over disjoint subtrees of the elimination tree (a column depends only on its descendants), then
-// the columns above them in order. Every column is computed by the same arithmetic whichever task runs it,
-// so the factor is bit-identical at any thread count.
+// Parallel over disjoint subtrees of the elimination tree (a column depends only on its descendants),
+// then the nodes above them in order, the big supernodes of that top split into fixed row chunks run
+// over the threads. The split into supernodes and chunks depends on the structure only, and every entry
+// is computed by the same arithmetic whichever task or thread runs it, so the factor is bit-identical at
+// any thread count.
 #pragma once
 
 #include "systems/parallel.hpp"
@@ -25,9 +31,9 @@ namespace pt {
 
 using Mat3 = Eigen::Matrix3d;
 
-struct BlockLdlt {
-  int32_t n = 0;                       // block rows (vertices)
-  std::vector<int32_t> order;          // factor index → matrix index (AMD)
+// Column path (small matrices): L unit block-lower-triangular by block columns, D block diagonal with
+// 3x3 SPD blocks stored inverted, computed column by column.
+struct ColumnFactor {
   // Upper part of the permuted matrix, per factor column k: rows i < k and the key each block comes from.
   std::vector<int32_t> column_start, column_row, column_key;
   std::vector<int32_t> diagonal_key;   // per factor column k, the key of A(k, k)
@@ -36,10 +42,38 @@ struct BlockLdlt {
   std::vector<int32_t> l_start, l_row;
   std::vector<int32_t> pattern_start, pattern_column, pattern_slot;
   std::vector<Mat3> l_blocks, d_inverse;
-  // Tasks: task t factors the columns task_columns[task_start[t] .. task_start[t+1]) (whole subtrees,
-  // increasing order); the columns of `top_columns` follow serially. One workspace per task.
-  std::vector<int32_t> task_start, task_columns, top_columns;
   std::vector<std::vector<Mat3>> work;  // scattered column per task (+1 for the top), zero between uses
+};
+
+// Supernodal path (large matrices): L Lᵀ = A (scalar Cholesky) by supernodes, runs of consecutive factor
+// columns with nested patterns. Supernode s has the columns [super_start[s], super_start[s+1]) and the
+// block rows super_row[row_start[s] .. row_start[s+1]) (its own columns, then the rows below, ascending);
+// its part of L is a dense column-major panel of 3·rows × 3·columns doubles at panel[panel_start[s]].
+struct SupernodalFactor {
+  std::vector<int32_t> super_start, row_start, super_row;
+  std::vector<int64_t> panel_start;
+  std::vector<double> panel;
+  // Updates of supernode s: descendants update_source[u] whose rows [update_first[u], update_last[u])
+  // (indices into super_row) are columns of s, for u in [update_start[s], update_start[s+1]).
+  std::vector<int32_t> update_start, update_source, update_first, update_last;
+  // Fixed row chunks of each supernode (see analyze) and, per chunk, the blocks of A assembled into it.
+  std::vector<int32_t> chunk_first, chunk_begin;
+  std::vector<int32_t> assembly_start, assembly_key;
+  std::vector<int64_t> assembly_offset;
+  std::vector<std::vector<int32_t>> position;  // row of a factor index in the current supernode, per task (+1)
+};
+
+struct BlockLdlt {
+  int32_t n = 0;                       // block rows (vertices)
+  std::vector<int32_t> order;          // factor index → matrix index (AMD or nested dissection)
+  bool supernodal = false;             // which of the two factors below is in use
+  ColumnFactor columns;
+  SupernodalFactor supernodes;
+  // Tasks: task t factors the nodes (columns or supernodes) task_nodes[task_start[t] .. task_start[t+1])
+  // (whole subtrees, increasing order); the nodes of `top_nodes` follow, a supernode's row chunks over
+  // the threads.
+  std::vector<int32_t> task_start, task_nodes, top_nodes;
+  int64_t fill_blocks = 0;    // blocks of L below the diagonal
   int64_t block_updates = 0;  // Σ over columns of c(c+1)/2, c = blocks below the diagonal: 54 flops each
   bool factorized = false;
 };
@@ -49,6 +83,11 @@ struct BlockLdltParams {
   int32_t tasks = 8;                  // subtrees to aim for (a few per core, for balance)
   int32_t min_dissection_blocks = 200;  // nested dissection tried from this many block rows (with coordinates)
   int32_t dissection_leaf = 1500;       // parts below this many block rows are ordered by AMD
+  int32_t min_supernodal_blocks = 2000;  // the supernodal factor from this many block rows, else by columns
+  // Structure of the supernodal factor, the same for every thread count (the result is bit-identical):
+  int32_t supernode_width = 32;       // block columns per supernode at most
+  double chunk_flops = 2e6;           // a supernode is split into row chunks of about this much work ...
+  int32_t max_chunks = 8;             // ... at most this many
 };
 
 // Symbolic analysis. `keys` are the (row, col) block positions of the full symmetric pattern, every
@@ -65,6 +104,6 @@ bool factorize_block_ldlt(const std::vector<Mat3>& values, const RangeRunner& ru
 void solve_block_ldlt(const BlockLdlt& ldlt, const double* b, double* x);
 
 // Number of 3x3 blocks stored in L (fill-in measure).
-inline int64_t block_ldlt_fill(const BlockLdlt& ldlt) { return static_cast<int64_t>(ldlt.l_row.size()); }
+inline int64_t block_ldlt_fill(const BlockLdlt& ldlt) { return ldlt.fill_blocks; }
 
 }  // namespace pt

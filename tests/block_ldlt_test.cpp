@@ -1,7 +1,8 @@
-// The block sparse LDLᵀ against an independent truth: Eigen's dense LLT of the same matrix assembled
-// densely. Random SPD matrices on vertex graphs (grid + random long edges, isolated vertices), the same
-// structure refactored with new values, an indefinite matrix that must be refused, and the nested
-// dissection order on a sheet pattern (triangles and hinges) with its coordinates.
+// The block sparse factorisation against an independent truth: Eigen's dense LLT of the same matrix
+// assembled densely. Random SPD matrices on vertex graphs (grid + random long edges, isolated vertices,
+// and sheet patterns of triangles and hinges), by both factors (columns, supernodal), the same structure
+// refactored with new values, indefinite and non-finite matrices that must be refused, the nested
+// dissection order, and bit-identical factors whatever the tasks, chunks and threads.
 #include "systems/block_ldlt.hpp"
 
 #include <gtest/gtest.h>
@@ -9,6 +10,7 @@
 #include <Eigen/Cholesky>
 
 #include <algorithm>
+#include <limits>
 #include <array>
 #include <map>
 #include <random>
@@ -108,15 +110,36 @@ Eigen::MatrixXd dense(const Keys& keys, const std::vector<Mat3>& values, int32_t
   return a;
 }
 
+// A x block by block, for matrices too large to hold densely.
+Eigen::VectorXd multiply(const Keys& keys, const std::vector<Mat3>& values, const Eigen::VectorXd& x) {
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(x.size());
+  for (size_t b = 0; b < keys.size(); ++b)
+    y.segment<3>(3 * keys[b].first) += values[b] * x.segment<3>(3 * keys[b].second);
+  return y;
+}
+
+// Both factors: by columns (the default below 2 000 block rows) and supernodal (forced).
+std::vector<std::pair<const char*, BlockLdltParams>> both_paths() {
+  return {{"columns", BlockLdltParams{}}, {"supernodal", BlockLdltParams{.min_supernodal_blocks = 0}}};
+}
+
+// A sheet pattern big enough for real supernodes, row chunks (chunk work lowered) and a task split.
+BlockLdltParams small_chunks(int32_t tasks) {
+  return BlockLdltParams{.min_parallel_blocks = 100, .tasks = tasks, .min_supernodal_blocks = 0, .chunk_flops = 2e4};
+}
+
 }  // namespace
 
 TEST(BlockLdlt, SolvesLikeADenseCholesky) {
   std::mt19937 rng(7);
-  for (const auto& [w, h, extra] : {std::tuple{1, 1, 0}, std::tuple{4, 3, 2}, std::tuple{12, 9, 6}, std::tuple{30, 20, 15}}) {
+  const auto sizes = {std::tuple{1, 1, 0}, std::tuple{4, 3, 2}, std::tuple{12, 9, 6}, std::tuple{30, 20, 15}};
+  for (const auto& [path, params] : both_paths())
+  for (const auto& [w, h, extra] : sizes) {
+    SCOPED_TRACE(path);
     const int32_t n = w * h + 1;
     const Keys keys = grid_pattern(w, h, extra, rng);
     BlockLdlt ldlt;
-    analyze_block_ldlt(n, keys, BlockLdltParams{}, ldlt);
+    analyze_block_ldlt(n, keys, params, ldlt);
     const std::vector<Mat3> values = random_values(keys, n, 0.5, rng);
     ASSERT_TRUE(factorize_block_ldlt(values, run_serial, ldlt));
     const Eigen::MatrixXd a = dense(keys, values, n);
@@ -133,8 +156,10 @@ TEST(BlockLdlt, RefactorsTheSameStructureWithNewValues) {
   std::mt19937 rng(11);
   const int32_t n = 8 * 8 + 1;
   const Keys keys = grid_pattern(8, 8, 4, rng);
+  for (const auto& [path, params] : both_paths()) {
+  SCOPED_TRACE(path);
   BlockLdlt ldlt;
-  analyze_block_ldlt(n, keys, BlockLdltParams{}, ldlt);
+  analyze_block_ldlt(n, keys, params, ldlt);
   for (int round = 0; round < 3; ++round) {
     const std::vector<Mat3> values = random_values(keys, n, 0.1 + round, rng);
     ASSERT_TRUE(factorize_block_ldlt(values, run_serial, ldlt));
@@ -143,14 +168,17 @@ TEST(BlockLdlt, RefactorsTheSameStructureWithNewValues) {
     solve_block_ldlt(ldlt, x.data(), x.data());  // in place
     EXPECT_LE((dense(keys, values, n) * x - b).norm(), 1e-11 * b.norm()) << "round " << round;
   }
+  }
 }
 
 TEST(BlockLdlt, RefusesAnIndefiniteMatrixAndRecovers) {
   std::mt19937 rng(3);
   const int32_t n = 5 * 5 + 1;
   const Keys keys = grid_pattern(5, 5, 0, rng);
+  for (const auto& [path, params] : both_paths()) {
+  SCOPED_TRACE(path);
   BlockLdlt ldlt;
-  analyze_block_ldlt(n, keys, BlockLdltParams{}, ldlt);
+  analyze_block_ldlt(n, keys, params, ldlt);
   std::vector<Mat3> values = random_values(keys, n, 0.5, rng);
   const auto diag = std::lower_bound(keys.begin(), keys.end(), std::make_pair(12, 12)) - keys.begin();
   const Mat3 kept = values[diag];
@@ -164,6 +192,7 @@ TEST(BlockLdlt, RefusesAnIndefiniteMatrixAndRecovers) {
   Eigen::VectorXd x(3 * n);
   solve_block_ldlt(ldlt, b.data(), x.data());
   EXPECT_LE((dense(keys, values, n) * x - b).norm(), 1e-11 * b.norm());
+  }
 }
 
 TEST(BlockLdlt, MinimumDegreeOrderingKeepsGridFillNearNLogN) {
@@ -190,7 +219,7 @@ TEST(BlockLdlt, SubtreeTasksGiveTheBitIdenticalFactorInAnyOrder) {
   analyze_block_ldlt(n, keys, BlockLdltParams{.min_parallel_blocks = 100, .tasks = 6}, split);
   ASSERT_EQ(serial.task_start.size(), 2u);
   ASSERT_GT(split.task_start.size(), 3u) << "the tree was not split";
-  EXPECT_LT(split.top_columns.size(), static_cast<size_t>(n) / 4) << "the top chain is a separator, not the grid";
+  EXPECT_LT(split.top_nodes.size(), split.task_nodes.size() / 4) << "the top chain is a separator, not the grid";
   ASSERT_TRUE(factorize_block_ldlt(values, run_serial, serial));
   const RangeRunner reversed_threads = [](int32_t count, int32_t, const RangeTask& task) {
     std::vector<std::thread> threads;
@@ -199,15 +228,17 @@ TEST(BlockLdlt, SubtreeTasksGiveTheBitIdenticalFactorInAnyOrder) {
   };
   for (int round = 0; round < 2; ++round) {
     ASSERT_TRUE(factorize_block_ldlt(values, reversed_threads, split));
-    ASSERT_EQ(serial.l_blocks.size(), split.l_blocks.size());
-    for (size_t p = 0; p < serial.l_blocks.size(); ++p) ASSERT_EQ(serial.l_blocks[p], split.l_blocks[p]) << p;
-    for (int32_t k = 0; k < n; ++k) ASSERT_EQ(serial.d_inverse[k], split.d_inverse[k]) << k;
+    ASSERT_EQ(serial.columns.l_blocks.size(), split.columns.l_blocks.size());
+    for (size_t p = 0; p < serial.columns.l_blocks.size(); ++p)
+      ASSERT_EQ(serial.columns.l_blocks[p], split.columns.l_blocks[p]) << p;
+    for (int32_t k = 0; k < n; ++k) ASSERT_EQ(serial.columns.d_inverse[k], split.columns.d_inverse[k]) << k;
   }
 }
 
 TEST(BlockLdlt, NestedDissectionIsAPermutationAndSolves) {
   // A 70x50 sheet pattern with its coordinates: two levels of dissection (leaf 1500) need fewer block
-  // updates than AMD alone, so the dissection is the order kept; it must be a permutation and solve.
+  // updates than AMD alone, so the dissection is the order kept; it must be a permutation and solve (by
+  // the supernodal factor, the default at this size) like a dense Cholesky on a smaller grid does.
   std::mt19937 rng(17);
   const int32_t w = 70, h = 50, n = w * h;
   const Keys keys = sheet_pattern(w, h);
@@ -221,10 +252,108 @@ TEST(BlockLdlt, NestedDissectionIsAPermutationAndSolves) {
   std::sort(sorted.begin(), sorted.end());
   for (int32_t k = 0; k < n; ++k) ASSERT_EQ(sorted[k], k);
   EXPECT_NE(nd.order, amd.order);
+  EXPECT_TRUE(nd.supernodal);
   const std::vector<Mat3> values = random_values(keys, n, 0.5, rng);
   ASSERT_TRUE(factorize_block_ldlt(values, run_serial, nd));
   const Eigen::VectorXd b = Eigen::VectorXd::Random(3 * n);
   Eigen::VectorXd x(3 * n);
   solve_block_ldlt(nd, b.data(), x.data());
-  EXPECT_LE((dense(keys, values, n) * x - b).norm(), 1e-11 * b.norm());
+  EXPECT_LE((multiply(keys, values, x) - b).norm(), 1e-11 * b.norm());
+}
+
+TEST(BlockLdlt, SupernodalFactorSolvesLikeADenseCholesky) {
+  // A 24x18 sheet pattern (432 vertices) ordered by nested dissection (forced from 200 blocks, leaf 64),
+  // supernodal with row chunks and a task split, against Eigen's dense LLT of the same matrix.
+  std::mt19937 rng(19);
+  const int32_t w = 24, h = 18, n = w * h;
+  const Keys keys = sheet_pattern(w, h);
+  std::vector<Eigen::Vector2d> xy(n);
+  for (int32_t v = 0; v < n; ++v) xy[v] = Eigen::Vector2d(v % w, v / w);
+  BlockLdltParams params = small_chunks(4);
+  params.dissection_leaf = 64;
+  BlockLdlt ldlt;
+  analyze_block_ldlt(n, keys, params, ldlt, xy);
+  const SupernodalFactor& sf = ldlt.supernodes;
+  const int32_t supernodes = static_cast<int32_t>(sf.super_start.size()) - 1;
+  int32_t widest = 0, chunked = 0;
+  for (int32_t s = 0; s < supernodes; ++s) {
+    widest = std::max(widest, sf.super_start[s + 1] - sf.super_start[s]);
+    chunked += sf.chunk_first[s + 1] - sf.chunk_first[s] > 2;
+  }
+  EXPECT_GE(widest, 16) << "no real supernode";
+  EXPECT_GT(chunked, 3) << "no supernode split into row chunks";
+  EXPECT_GT(ldlt.task_start.size(), 3u) << "no task split";
+  for (int round = 0; round < 2; ++round) {
+    const std::vector<Mat3> values = random_values(keys, n, 0.1 + round, rng);
+    ASSERT_TRUE(factorize_block_ldlt(values, run_serial, ldlt));
+    const Eigen::MatrixXd a = dense(keys, values, n);
+    const Eigen::VectorXd b = Eigen::VectorXd::Random(3 * n);
+    Eigen::VectorXd x(3 * n);
+    solve_block_ldlt(ldlt, b.data(), x.data());
+    const Eigen::VectorXd truth = a.llt().solve(b);
+    EXPECT_LE((x - truth).norm(), 1e-11 * truth.norm()) << "round " << round;
+    EXPECT_LE((a * x - b).norm(), 1e-11 * b.norm()) << "round " << round;
+  }
+}
+
+TEST(BlockLdlt, SupernodalFactorRefusesPivotsAnywhereAndRecovers) {
+  // A negative or NaN entry in a diagonal block low in the tree, then in the last separator (the top,
+  // whose chunks run through the runner): refused each time, and the next good matrix factors again.
+  std::mt19937 rng(23);
+  const int32_t w = 24, h = 18, n = w * h;
+  const Keys keys = sheet_pattern(w, h);
+  BlockLdlt ldlt;
+  analyze_block_ldlt(n, keys, small_chunks(4), ldlt);
+  ASSERT_FALSE(ldlt.top_nodes.empty());
+  const std::vector<Mat3> good = random_values(keys, n, 0.5, rng);
+  const int32_t top_vertex = ldlt.order[n - 1], low_vertex = ldlt.order[0];
+  for (int32_t v : {low_vertex, top_vertex})
+    for (double bad : {-1e6, std::nan(""), std::numeric_limits<double>::infinity()}) {
+      std::vector<Mat3> values = good;
+      const auto diag = std::lower_bound(keys.begin(), keys.end(), std::make_pair(v, v)) - keys.begin();
+      values[diag](2, 2) = bad;
+      EXPECT_FALSE(factorize_block_ldlt(values, run_serial, ldlt)) << v << " " << bad;
+      EXPECT_FALSE(ldlt.factorized);
+    }
+  {
+    std::vector<Mat3> values = good;  // a non-finite off-diagonal block (both halves): refused at a later pivot
+    for (const auto& key : {std::make_pair(0, 1), std::make_pair(1, 0)})
+      values[std::lower_bound(keys.begin(), keys.end(), key) - keys.begin()](0, 0) = std::nan("");
+    EXPECT_FALSE(factorize_block_ldlt(values, run_serial, ldlt));
+  }
+  ASSERT_TRUE(factorize_block_ldlt(good, run_serial, ldlt));
+  const Eigen::VectorXd b = Eigen::VectorXd::Random(3 * n);
+  Eigen::VectorXd x(3 * n);
+  solve_block_ldlt(ldlt, b.data(), x.data());
+  EXPECT_LE((multiply(keys, good, x) - b).norm(), 1e-11 * b.norm());
+}
+
+TEST(BlockLdlt, SupernodalChunksAndTasksGiveTheBitIdenticalFactorInAnyOrder) {
+  // One task against six tasks, with the tasks and the top supernodes' row chunks run in reverse order on
+  // real threads: every entry of every panel must come out bit-identical.
+  std::mt19937 rng(29);
+  const int32_t w = 30, h = 24, n = w * h;
+  const Keys keys = sheet_pattern(w, h);
+  const std::vector<Mat3> values = random_values(keys, n, 0.5, rng);
+  BlockLdlt serial, split;
+  analyze_block_ldlt(n, keys, small_chunks(1), serial);
+  analyze_block_ldlt(n, keys, small_chunks(6), split);
+  ASSERT_EQ(serial.task_start.size(), 2u);
+  ASSERT_GT(split.task_start.size(), 3u) << "the tree was not split";
+  int32_t chunked_top = 0;
+  for (int32_t s : split.top_nodes)
+    chunked_top += split.supernodes.chunk_first[s + 1] - split.supernodes.chunk_first[s] > 2;
+  ASSERT_GT(chunked_top, 0) << "no top supernode in chunks";
+  ASSERT_TRUE(factorize_block_ldlt(values, run_serial, serial));
+  const RangeRunner reversed_threads = [](int32_t count, int32_t, const RangeTask& task) {
+    std::vector<std::thread> threads;
+    for (int32_t t = count - 1; t >= 0; --t) threads.emplace_back([&task, t] { task(t, t + 1); });
+    for (std::thread& th : threads) th.join();
+  };
+  for (int round = 0; round < 2; ++round) {
+    ASSERT_TRUE(factorize_block_ldlt(values, reversed_threads, split));
+    ASSERT_EQ(serial.supernodes.panel.size(), split.supernodes.panel.size());
+    for (size_t p = 0; p < serial.supernodes.panel.size(); ++p)
+      ASSERT_EQ(serial.supernodes.panel[p], split.supernodes.panel[p]) << p;
+  }
 }
