@@ -552,52 +552,106 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
   }
 
   // ---- 5. Compaction: dead triangles and removed vertices go by swap-with-last. ----
+  // Only the triangles this cut touched, moved or renamed are visited, and they are handed to the local
+  // topology refresh with every vertex whose fan they change.
   Triangles& T = sheet.tris;
+  Vertices& V = sheet.verts;
+  LocalTopologyChange change;
   std::vector<int32_t> dead;
   for (int32_t t : C.touched)
     if (T.tri[t][0] < 0) dead.push_back(t);
   std::sort(dead.rbegin(), dead.rend());
+  std::vector<std::pair<int32_t, int32_t>> tri_moves;  // (id before the cut, slot now) of moved survivors
   for (int32_t t : dead) {
     const int32_t last = T.size() - 1;
-    if (t != last) T.copy_entry(last, t);
+    if (t != last) {
+      T.copy_entry(last, t);
+      auto it = std::find_if(tri_moves.begin(), tri_moves.end(), [&](const auto& m) { return m.second == last; });
+      if (it != tri_moves.end()) it->second = t;  // moved twice: keep its origin
+      else tri_moves.push_back({last, t});
+    }
     T.resize(last);
   }
-  Vertices& V = sheet.verts;
+  // A triangle id from before the compaction (touched, or from the entry topology) → its slot now, −1 if dead.
+  auto tri_now = [&](int32_t t) {
+    for (const auto& m : tri_moves)
+      if (m.first == t) return m.second;
+    if (std::binary_search(dead.rbegin(), dead.rend(), t)) return -1;
+    return t < T.size() ? t : -1;
+  };
+  std::vector<int32_t>& changed = change.triangles;
+  for (int32_t t : C.touched)
+    if (const int32_t now = tri_now(t); now >= 0) changed.push_back(now);
+  for (const auto& m : tri_moves) changed.push_back(m.second);
+
   const int32_t nv = V.size();
-  std::vector<int32_t> where(nv), at(nv);  // original id → current slot, slot → original id
-  for (int32_t i = 0; i < nv; ++i) where[i] = at[i] = i;
+  std::vector<std::pair<int32_t, int32_t>> vertex_moves;  // (id before, slot now) of moved vertices
   std::vector<int32_t> gone;
   for (const auto& rm : removed) gone.push_back(rm.first);
   std::sort(gone.rbegin(), gone.rend());
   for (int32_t v : gone) {
-    const int32_t slot = where[v], last = V.size() - 1;
-    if (slot != last) {
-      V.copy_entry(last, slot);
-      const int32_t moved = at[last];
-      where[moved] = slot;
-      at[slot] = moved;
+    const int32_t last = V.size() - 1;
+    if (v != last) {
+      V.copy_entry(last, v);
+      auto it = std::find_if(vertex_moves.begin(), vertex_moves.end(), [&](const auto& m) { return m.second == last; });
+      if (it != vertex_moves.end()) it->second = v;
+      else vertex_moves.push_back({last, v});
     }
-    where[v] = -1;
     V.resize(last);
   }
+  auto vertex_now = [&](int32_t v) {  // id before → id now, −1 for a removed vertex
+    for (const auto& m : vertex_moves)
+      if (m.first == v) return m.second;
+    if (std::find(gone.begin(), gone.end(), v) != gone.end()) return -1;
+    return v;
+  };
   auto remap = [&](int32_t v) {
     if (v < 0 || v >= nv) return v;
     for (const auto& rm : removed)
       if (rm.first == v) v = rm.second;  // a removed vertex lives on in the one it merged into
-    return where[v];
+    return vertex_now(v);
   };
-  if (!gone.empty()) {
-    for (Tri& q : T.tri)
-      for (int32_t& c : q) c = where[c];
-    for (Finger& f : sheet.fingers) f.vertex = remap(f.vertex);
-    for (Tip& tp : sheet.tips) tp.vertex = remap(tp.vertex);
+  // Rename the moved vertices in their triangles: those of the entry fan and the touched ones.
+  for (const auto& [before, now] : vertex_moves) {
+    std::vector<int32_t> holders;
+    if (before < C.n0)
+      for (int32_t k = C.topo.vt_offset[before]; k < C.topo.vt_offset[before + 1]; ++k)
+        if (const int32_t t = tri_now(C.topo.vt_tri[k]); t >= 0) holders.push_back(t);
+    holders.insert(holders.end(), changed.begin(), changed.end());
+    for (int32_t t : holders)
+      for (int32_t& c : T.tri[t])
+        if (c == before) {
+          c = now;
+          changed.push_back(t);
+        }
   }
-  refresh_after_topology_change(sheet);
+  std::sort(changed.begin(), changed.end());
+  changed.erase(std::unique(changed.begin(), changed.end()), changed.end());
+  // Vertices whose fans changed: the corners of the changed triangles now, and the corners the touched
+  // triangles had before the cut (a triangle that died or let go of a vertex leaves its old corners' fans).
+  for (int32_t t : changed)
+    for (int32_t c : T.tri[t]) change.vertices.push_back(c);
+  for (const auto& [t, corners] : C.undo)
+    for (int32_t c : corners)
+      if (const int32_t now = vertex_now(c); now >= 0) change.vertices.push_back(now);
+  std::sort(change.vertices.begin(), change.vertices.end());
+  change.vertices.erase(std::unique(change.vertices.begin(), change.vertices.end()), change.vertices.end());
+  for (int32_t t : dead)
+    if (t < C.nt0) change.dead_triangles.push_back(t);
+  std::sort(change.dead_triangles.begin(), change.dead_triangles.end());
+  for (const auto& m : tri_moves)
+    if (m.first < C.nt0) change.moved_triangles.push_back(m);
+  change.pieces_may_split = reached_boundary;
+
+  for (Finger& f : sheet.fingers) f.vertex = remap(f.vertex);
+  for (Tip& tp : sheet.tips) tp.vertex = remap(tp.vertex);
+  if (topo == &sheet.topo) refresh_after_local_change(change, sheet);
+  else refresh_after_topology_change(sheet);
 
   result.cut = true;
   result.reached_boundary = reached_boundary;
-  result.tip_vertex = reached_boundary ? -1 : where[path.back()];
-  result.end = V.rest[where[path.back()]];
+  result.tip_vertex = reached_boundary ? -1 : vertex_now(path.back());
+  result.end = V.rest[vertex_now(path.back())];
   result.new_vertices = C.created;
   result.removed_vertices = static_cast<int32_t>(gone.size());
   return result;

@@ -162,6 +162,225 @@ void refresh_after_topology_change(Sheet& sheet) {
   sheet.topo.version = sheet.topology_version;
 }
 
+void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet) {
+  Vertices& V = sheet.verts;
+  Triangles& T = sheet.tris;
+  Topology& topo = sheet.topo;
+  const int32_t nv = V.size(), nt = T.size();
+  const int32_t nv_before = static_cast<int32_t>(topo.vt_offset.size()) - 1;
+  if (topo.version != sheet.topology_version || nv_before < 0 ||
+      static_cast<int32_t>(topo.boundary_next.size()) != nv_before) {
+    refresh_after_topology_change(sheet);
+    return;
+  }
+  const std::vector<int32_t>& A = change.vertices;  // affected vertices, ascending
+  std::vector<char> mark(std::max(nv, nv_before), 0);  // one byte per vertex: a memset, no search per hinge
+  for (int32_t v : A) mark[v] = 1;
+  auto affected = [&](int32_t v) { return mark[v] != 0; };
+  auto contains = [](const Tri& t, int32_t v) { return t[0] == v || t[1] == v || t[2] == v; };
+  // A triangle id of the topology before the change → its id now (−1: removed).
+  auto tri_now = [&](int32_t t) {
+    if (std::binary_search(change.dead_triangles.begin(), change.dead_triangles.end(), t)) return -1;
+    for (const auto& m : change.moved_triangles)
+      if (m.first == t) return m.second;
+    return t;
+  };
+
+  T.corner_force.resize(nt, {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()});
+  T.region.resize(nt, -1);
+  T.side.resize(nt, 0);
+  T.rest_inv.resize(nt);
+  T.rest_area.resize(nt);
+  for (int32_t t : change.triangles) {  // update_rest_data for the changed triangles only
+    const Vec2& a = V.rest[T.tri[t][0]];
+    Mat2 dm;
+    dm.col(0) = V.rest[T.tri[t][1]] - a;
+    dm.col(1) = V.rest[T.tri[t][2]] - a;
+    const double det = dm.determinant();
+    T.rest_area[t] = 0.5 * det;
+    T.rest_inv[t] = det != 0 ? Mat2(dm.inverse()) : Mat2::Zero();
+  }
+
+  // Fans: the affected vertices' from their old fan and the changed triangles; runs of unaffected vertices
+  // copied as blocks (their fans hold no changed, moved or removed triangle).
+  std::vector<std::vector<int32_t>> fans(A.size());
+  for (size_t k = 0; k < A.size(); ++k) {
+    const int32_t v = A[k];
+    std::vector<int32_t>& f = fans[k];
+    if (v < nv_before)
+      for (int32_t q = topo.vt_offset[v]; q < topo.vt_offset[v + 1]; ++q)
+        if (const int32_t t = tri_now(topo.vt_tri[q]); t >= 0 && t < nt && contains(T.tri[t], v)) f.push_back(t);
+    for (int32_t t : change.triangles)
+      if (contains(T.tri[t], v)) f.push_back(t);
+    std::sort(f.begin(), f.end());
+    f.erase(std::unique(f.begin(), f.end()), f.end());
+  }
+  // Built into buffers kept from the previous refresh and swapped in (no fresh pages for big sheets).
+  thread_local std::vector<int32_t> offset, vt;
+  thread_local std::vector<Hinge> merged;
+  offset.assign(nv + 1, 0);
+  vt.clear();
+  vt.reserve(topo.vt_tri.size() + 3 * change.triangles.size());
+  {
+    int32_t v = 0;
+    size_t k = 0;
+    while (v < nv) {
+      const int32_t run_end = k < A.size() ? std::min(A[k], nv) : nv;  // [v, run_end) unaffected
+      if (run_end > v) {
+        const int32_t first = topo.vt_offset[v], last = topo.vt_offset[run_end];
+        const int32_t delta = static_cast<int32_t>(vt.size()) - first;
+        vt.insert(vt.end(), topo.vt_tri.begin() + first, topo.vt_tri.begin() + last);
+        for (int32_t u = v; u < run_end; ++u) offset[u + 1] = topo.vt_offset[u + 1] + delta;
+        v = run_end;
+      }
+      if (k < A.size() && v == A[k]) {
+        vt.insert(vt.end(), fans[k].begin(), fans[k].end());
+        offset[v + 1] = static_cast<int32_t>(vt.size());
+        ++v;
+        ++k;
+      }
+    }
+  }
+  topo.vt_offset.swap(offset);
+  topo.vt_tri.swap(vt);
+  auto fan_begin = [&](int32_t v) { return topo.vt_tri.begin() + topo.vt_offset[v]; };
+  auto fan_end = [&](int32_t v) { return topo.vt_tri.begin() + topo.vt_offset[v + 1]; };
+
+  // Neighbours of every triangle around an affected vertex (an edge pairs exactly two triangles, as in
+  // build_topology; more stay unpaired).
+  topo.neighbor.resize(nt, {-1, -1, -1});
+  std::vector<int32_t> around;
+  for (int32_t v : A) around.insert(around.end(), fan_begin(v), fan_end(v));
+  std::sort(around.begin(), around.end());
+  around.erase(std::unique(around.begin(), around.end()), around.end());
+  for (int32_t t : around)
+    for (int32_t i = 0; i < 3; ++i) {
+      const int32_t a = T.tri[t][i], b = T.tri[t][(i + 1) % 3];
+      int32_t other = -1, count = 0;
+      for (auto it = fan_begin(a); it != fan_end(a); ++it)
+        if (contains(T.tri[*it], b)) {
+          ++count;
+          if (*it != t) other = *it;
+        }
+      topo.neighbor[t][i] = count == 2 ? other : -1;
+    }
+
+  // Hinges: the old ones away from the change kept in order, the ones on edges at an affected vertex
+  // rebuilt (oriented from the lower triangle, as build_topology does), merged by (min, max) of the edge.
+  struct Keyed {
+    int32_t lo, hi;
+    Hinge h;
+  };
+  std::vector<Keyed> fresh;
+  for (int32_t a : A)
+    for (auto it = fan_begin(a); it != fan_end(a); ++it) {
+      const int32_t t0 = *it;
+      for (int32_t i = 0; i < 3; ++i) {
+        const int32_t x = T.tri[t0][i], y = T.tri[t0][(i + 1) % 3];
+        if (x != a && y != a) continue;
+        const int32_t t1 = topo.neighbor[t0][i];
+        if (t1 < 0 || t1 < t0) continue;  // boundary, or listed from the lower triangle
+        int32_t j = 0;
+        while (!(T.tri[t1][j] == y && T.tri[t1][(j + 1) % 3] == x) && !(T.tri[t1][j] == x && T.tri[t1][(j + 1) % 3] == y)) ++j;
+        fresh.push_back({std::min(x, y), std::max(x, y), Hinge{{x, y, T.tri[t0][(i + 2) % 3], T.tri[t1][(j + 2) % 3]}}});
+      }
+    }
+  std::sort(fresh.begin(), fresh.end(), [](const Keyed& p, const Keyed& q) { return p.lo != q.lo ? p.lo < q.lo : p.hi < q.hi; });
+  fresh.erase(std::unique(fresh.begin(), fresh.end(), [](const Keyed& p, const Keyed& q) { return p.lo == q.lo && p.hi == q.hi; }),
+              fresh.end());
+  {
+    // Kept hinges are copied in runs (a memory-speed copy); a run ends at a dropped hinge or where a fresh
+    // one goes in.
+    std::vector<Hinge>& out = merged;
+    out.clear();
+    out.reserve(topo.hinges.size() + fresh.size());
+    const std::vector<Hinge>& old = topo.hinges;
+    const size_t n_old = old.size();
+    size_t f = 0, run = 0;
+    for (size_t k = 0; k < n_old; ++k) {
+      const Hinge& h = old[k];
+      const int32_t lo = std::min(h.v[0], h.v[1]), hi = std::max(h.v[0], h.v[1]);
+      const bool keep = hi < nv && !mark[lo] && !mark[hi];
+      const bool insert_before = keep && f < fresh.size() && (fresh[f].lo < lo || (fresh[f].lo == lo && fresh[f].hi < hi));
+      if (!keep || insert_before) {
+        out.insert(out.end(), old.begin() + run, old.begin() + k);
+        run = keep ? k : k + 1;
+        while (insert_before && f < fresh.size() && (fresh[f].lo < lo || (fresh[f].lo == lo && fresh[f].hi < hi)))
+          out.push_back(fresh[f++].h);
+      }
+    }
+    out.insert(out.end(), old.begin() + run, old.end());
+    while (f < fresh.size()) out.push_back(fresh[f++].h);
+    topo.hinges.swap(out);
+  }
+
+  // Boundary links, masses and flags of the affected vertices (in fan order: the same last-wins and
+  // summation order as the full refresh).
+  topo.boundary_next.resize(nv, -1);
+  topo.boundary_prev.resize(nv, -1);
+  const double areal_density = sheet.material.density * sheet.material.thickness;
+  for (int32_t v : A) {
+    int32_t next = -1, prev = -1;
+    double mass = 0.0;
+    for (auto it = fan_begin(v); it != fan_end(v); ++it) {
+      const int32_t t = *it;
+      const int32_t i = T.tri[t][0] == v ? 0 : (T.tri[t][1] == v ? 1 : 2);
+      if (topo.neighbor[t][i] < 0) next = T.tri[t][(i + 1) % 3];
+      const int32_t j = (i + 2) % 3;
+      if (topo.neighbor[t][j] < 0) prev = T.tri[t][j];
+      mass += areal_density * T.rest_area[t] / 3.0;
+    }
+    topo.boundary_next[v] = next;
+    topo.boundary_prev[v] = prev;
+    V.mass[v] = mass;
+  }
+  for (int32_t v : A) {
+    uint8_t f = V.flags[v] & ~(kBoundary | kInward);
+    if (topo.boundary_next[v] >= 0) {
+      f |= kBoundary;
+      if (interior_pattern_angle(topo, V.rest, v) > std::numbers::pi + 0.05) f |= kInward;
+    }
+    V.flags[v] = f;
+  }
+
+  // Pieces: a cut that reached the boundary may part the sheet (flood fill again); otherwise the changed
+  // triangles kept their parent's piece and only the numbering by lowest triangle may need restoring.
+  if (change.pieces_may_split) {
+    std::vector<int32_t>& piece = T.piece;
+    piece.assign(nt, -1);
+    std::vector<int32_t> stack;
+    int32_t count = 0;
+    for (int32_t s0 = 0; s0 < nt; ++s0) {
+      if (piece[s0] >= 0) continue;
+      piece[s0] = count;
+      stack.push_back(s0);
+      while (!stack.empty()) {
+        const int32_t t = stack.back();
+        stack.pop_back();
+        for (int32_t n : topo.neighbor[t])
+          if (n >= 0 && piece[n] < 0) {
+            piece[n] = count;
+            stack.push_back(n);
+          }
+      }
+      ++count;
+    }
+    topo.piece_count = count;
+  } else if (topo.piece_count > 1) {
+    std::vector<int32_t> order(topo.piece_count, -1);  // old piece id → new, by first appearance
+    int32_t next_id = 0;
+    for (int32_t t = 0; t < nt && next_id < topo.piece_count; ++t)
+      if (order[T.piece[t]] < 0) order[T.piece[t]] = next_id++;
+    bool same = true;
+    for (int32_t p = 0; p < topo.piece_count; ++p) same = same && order[p] == p;
+    if (!same)
+      for (int32_t& p : T.piece) p = order[p];
+  }
+
+  sheet.topology_version += 1;
+  topo.version = sheet.topology_version;
+}
+
 double total_rest_area(const Triangles& tris) {
   double a = 0;
   for (double x : tris.rest_area) a += x;
@@ -267,6 +486,33 @@ std::string check_mesh_invariants(const Sheet& sheet, double expected_area) {
       err << "total pattern area " << area << " differs from " << expected_area;
       return err.str();
     }
+  }
+  // Derived data kept up to date by the local refresh after a cut must equal a full rebuild, bit for bit.
+  if (sheet.topo.version == sheet.topology_version) {
+    const Topology& cur = sheet.topo;
+    const char* what = nullptr;
+    if (cur.vt_offset != topo.vt_offset || cur.vt_tri != topo.vt_tri) what = "vertex fans";
+    else if (cur.neighbor != topo.neighbor) what = "triangle neighbours";
+    else if (cur.boundary_next != topo.boundary_next || cur.boundary_prev != topo.boundary_prev) what = "boundary links";
+    else if (cur.piece_count != topo.piece_count || T.piece != piece) what = "pieces";
+    else if (cur.hinges.size() != topo.hinges.size()) what = "hinge count";
+    for (size_t h = 0; !what && h < topo.hinges.size(); ++h)
+      if (cur.hinges[h].v != topo.hinges[h].v) what = "hinges";
+    if (!what) {
+      std::vector<Mat2> inv;
+      std::vector<double> area;
+      update_rest_data(V.rest, T.tri, inv, area);
+      std::vector<double> mass(nv, 0.0);
+      lump_masses(T.tri, area, sheet.material, mass);
+      std::vector<uint8_t> flags = V.flags;
+      update_boundary_flags(topo, V.rest, 0.05, flags);
+      if (area != T.rest_area) what = "rest areas";
+      for (int32_t t = 0; !what && t < nt; ++t)
+        if (inv[t] != T.rest_inv[t]) what = "rest inverses";
+      if (!what && mass != V.mass) what = "lumped masses";
+      if (!what && flags != V.flags) what = "boundary flags";
+    }
+    if (what) return std::string("the topology's ") + what + " differ from a full rebuild";
   }
   return {};
 }

@@ -32,6 +32,23 @@ void update_boundary_flags(const Topology& topo, const std::vector<Vec2>& rest, 
 // All of the above, plus topology_version bump. Call after meshing or any remesh.
 void refresh_after_topology_change(Sheet& sheet);
 
+// What a local remesh changed, in the ids after its compaction (the triangle and vertex arrays are already
+// in their final state; sheet.topo still describes the sheet before the change).
+struct LocalTopologyChange {
+  std::vector<int32_t> triangles;  // every triangle modified, appended, moved or renamed (ascending, unique)
+  std::vector<int32_t> vertices;   // every corner of those, before and after the change (ascending, unique)
+  std::vector<std::pair<int32_t, int32_t>> moved_triangles;  // (id before, id after) of moved survivors
+  std::vector<int32_t> dead_triangles;  // ids before the change of the triangles that were removed
+  bool pieces_may_split = false;   // a tear reached the boundary: the sheet may have parted
+};
+
+// Same result as refresh_after_topology_change, bit for bit, in time that grows with the size of the change
+// (plus a few memory-speed copies of the per-vertex and per-hinge arrays): a cut rewrites a handful of
+// triangles, and rebuilding every fan, hinge and flag after each one made the cut linear in the sheet
+// (issue 3: the tearing step's cost grows with the local mesh size). Falls back to the full refresh when
+// sheet.topo is not the topology of the sheet before the change.
+void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet);
+
 // DESIGN §5.5 invariants. Returns an empty string when they hold, else a description of the first
 // violation. `expected_area` < 0 skips the area check.
 std::string check_mesh_invariants(const Sheet& sheet, double expected_area = -1);
