@@ -136,13 +136,17 @@ BENCHMARK(BM_RemeshOneCut)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMi
 
 }  // namespace
 
-// One numeric factorisation of the implicit integrator's matrix pattern (every vertex free, a block per
-// pair of vertices sharing a triangle or a hinge) with diagonally dominant SPD values, at 1 and 2
-// threads: the kernel that dominates a physics frame. Counters: fill (blocks of L), block updates and
-// GFlop/s (54 flops per 3x3 block update).
-void BM_BlockLdltFactor(benchmark::State& state) {
-  const Sheet sheet = build_sheet(bench::a4_scene(static_cast<int32_t>(state.range(0)), false));
-  const int32_t n = sheet.verts.size(), threads = static_cast<int32_t>(state.range(1));
+// The A4 sheet's matrix: keys, values and the vertices' rest coordinates.
+struct SheetMatrix {
+  int32_t n = 0;
+  std::vector<std::pair<int32_t, int32_t>> keys;
+  std::vector<Mat3> values;
+  std::vector<Vec2> coordinates;
+};
+
+SheetMatrix sheet_matrix(int32_t triangles) {
+  const Sheet sheet = build_sheet(bench::a4_scene(triangles, false));
+  const int32_t n = sheet.verts.size();
   std::vector<std::pair<int32_t, int32_t>> keys;
   for (int32_t v = 0; v < n; ++v) keys.emplace_back(v, v);
   for (const Tri& t : sheet.tris.tri)
@@ -166,8 +170,19 @@ void BM_BlockLdltFactor(benchmark::State& state) {
   for (size_t b = 0; b < keys.size(); ++b)
     if (keys[b].first == keys[b].second) values[b] = Mat3::Identity() * (row_sum[keys[b].first] + 1e-3);
   std::vector<Vec2> coordinates(sheet.verts.rest.begin(), sheet.verts.rest.end());
+  return {n, std::move(keys), std::move(values), std::move(coordinates)};
+}
+
+// One numeric factorisation of the implicit integrator's matrix pattern (every vertex free, a block per
+// pair of vertices sharing a triangle or a hinge) with diagonally dominant SPD values, at 1 and 2
+// threads: the kernel that dominates a physics frame. Counters: fill (blocks of L), block updates and
+// GFlop/s (54 flops per 3x3 block update).
+void BM_BlockLdltFactor(benchmark::State& state) {
+  const SheetMatrix m = sheet_matrix(static_cast<int32_t>(state.range(0)));
+  const int32_t n = m.n, threads = static_cast<int32_t>(state.range(1));
+  const auto& values = m.values;
   BlockLdlt ldlt;
-  analyze_block_ldlt(n, keys, BlockLdltParams{}, ldlt, coordinates);
+  analyze_block_ldlt(n, m.keys, BlockLdltParams{}, ldlt, m.coordinates);
   tbb::task_arena arena(threads);
   const RangeRunner run = [&](int32_t count, int32_t grain, const RangeTask& task) {
     if (threads <= 1 || count <= 1) return task(0, count);
@@ -191,3 +206,13 @@ BENCHMARK(BM_BlockLdltFactor)
     ->ArgNames({"triangles", "threads"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+// The symbolic analysis that precedes it, once per structure (after every cut of a tear): orderings
+// (AMD, and nested dissection compared with it), elimination tree, patterns, supernodes.
+void BM_BlockLdltAnalyze(benchmark::State& state) {
+  const SheetMatrix m = sheet_matrix(static_cast<int32_t>(state.range(0)));
+  BlockLdlt ldlt;
+  for (auto _ : state) analyze_block_ldlt(m.n, m.keys, BlockLdltParams{}, ldlt, m.coordinates);
+  state.counters["vertices"] = m.n;
+}
+BENCHMARK(BM_BlockLdltAnalyze)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond);

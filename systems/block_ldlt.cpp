@@ -554,7 +554,8 @@ void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>
   std::vector<int32_t> parent, count;
   out.order = minimum_degree_order(n, graph);
   out.block_updates = permute_and_count(n, keys, out.order, upper, parent, count);
-  if (static_cast<int32_t>(coordinates.size()) == n && n >= params.min_dissection_blocks) {
+  // (Below `dissection_leaf` the dissection would be AMD itself.)
+  if (static_cast<int32_t>(coordinates.size()) == n && n >= params.dissection_leaf) {
     Dissection nd{graph, coordinates, params.dissection_leaf, std::vector<int32_t>(n, 0), std::vector<int32_t>(n), {}};
     std::vector<int32_t> all(n);
     for (int32_t i = 0; i < n; ++i) all[i] = i;
@@ -573,12 +574,11 @@ void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>
   }
   for (int32_t k = 0; k < n; ++k) out.fill_blocks += count[k];
 
-  std::vector<double> work;  // per node, for the task split
+  std::vector<double> work;  // per node (column or supernode), for the task split
   std::vector<int32_t> node_parent;
   out.supernodal = n >= params.min_supernodal_blocks;
   if (out.supernodal) {
     analyze_supernodes(n, keys, out.order, upper, parent, count, params, out.supernodes, work, node_parent);
-    out.supernodes.position.assign(0, {});
   } else {
     analyze_columns(n, std::move(upper), parent, count, out.columns, work);
     node_parent = parent;

@@ -81,9 +81,11 @@ struct BlockLdlt {
 struct BlockLdltParams {
   int32_t min_parallel_blocks = 400;  // below this many block rows the factorisation stays one task
   int32_t tasks = 8;                  // subtrees to aim for (a few per core, for balance)
-  int32_t min_dissection_blocks = 200;  // nested dissection tried from this many block rows (with coordinates)
-  int32_t dissection_leaf = 1500;       // parts below this many block rows are ordered by AMD
-  int32_t min_supernodal_blocks = 2000;  // the supernodal factor from this many block rows, else by columns
+  int32_t dissection_leaf = 1500;     // nested dissection (with coordinates) down to parts of this many block
+                                      // rows, then AMD; tried from this size on
+  // The supernodal factor from this many block rows, else by columns. Measured on the A4 sheet: at 576
+  // vertices the columns take 1.4 ms, supernodes 2.3 ms; at 5 162, 80 ms against 67 ms (1 thread).
+  int32_t min_supernodal_blocks = 2000;
   // Structure of the supernodal factor, the same for every thread count (the result is bit-identical):
   int32_t supernode_width = 32;       // block columns per supernode at most
   double chunk_flops = 2e6;           // a supernode is split into row chunks of about this much work ...
