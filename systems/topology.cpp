@@ -162,6 +162,17 @@ void refresh_after_topology_change(Sheet& sheet) {
   sheet.topo.version = sheet.topology_version;
 }
 
+namespace {
+// Buffers of the local refresh, kept per thread between cuts: a cut runs every few frames and its refresh
+// would otherwise spend more on allocation than on the change itself (small sheets), or fault in fresh
+// pages for the fan and hinge arrays (big ones). The rebuilt arrays are swapped with the topology's.
+struct LocalRefreshScratch {
+  std::vector<char> mark;
+  std::vector<int32_t> fan_flat, fan_start, around, offset, vt;
+  std::vector<Hinge> merged;
+};
+}  // namespace
+
 void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet) {
   Vertices& V = sheet.verts;
   Triangles& T = sheet.tris;
@@ -174,9 +185,10 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
     return;
   }
   const std::vector<int32_t>& A = change.vertices;  // affected vertices, ascending
-  std::vector<char> mark(std::max(nv, nv_before), 0);  // one byte per vertex: a memset, no search per hinge
+  thread_local LocalRefreshScratch scratch;
+  std::vector<char>& mark = scratch.mark;  // one byte per vertex: no search per hinge
+  mark.assign(std::max(nv, nv_before), 0);
   for (int32_t v : A) mark[v] = 1;
-  auto affected = [&](int32_t v) { return mark[v] != 0; };
   auto contains = [](const Tri& t, int32_t v) { return t[0] == v || t[1] == v || t[2] == v; };
   // A triangle id of the topology before the change → its id now (−1: removed).
   auto tri_now = [&](int32_t t) {
@@ -203,21 +215,23 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
 
   // Fans: the affected vertices' from their old fan and the changed triangles; runs of unaffected vertices
   // copied as blocks (their fans hold no changed, moved or removed triangle).
-  std::vector<std::vector<int32_t>> fans(A.size());
-  for (size_t k = 0; k < A.size(); ++k) {
-    const int32_t v = A[k];
-    std::vector<int32_t>& f = fans[k];
+  std::vector<int32_t>& fan_flat = scratch.fan_flat;  // fan of A[k] at [fan_start[k], fan_start[k + 1])
+  std::vector<int32_t>& fan_start = scratch.fan_start;
+  fan_flat.clear();
+  fan_start.assign(1, 0);
+  for (const int32_t v : A) {
+    const auto first = static_cast<std::ptrdiff_t>(fan_flat.size());
     if (v < nv_before)
       for (int32_t q = topo.vt_offset[v]; q < topo.vt_offset[v + 1]; ++q)
-        if (const int32_t t = tri_now(topo.vt_tri[q]); t >= 0 && t < nt && contains(T.tri[t], v)) f.push_back(t);
+        if (const int32_t t = tri_now(topo.vt_tri[q]); t >= 0 && t < nt && contains(T.tri[t], v)) fan_flat.push_back(t);
     for (int32_t t : change.triangles)
-      if (contains(T.tri[t], v)) f.push_back(t);
-    std::sort(f.begin(), f.end());
-    f.erase(std::unique(f.begin(), f.end()), f.end());
+      if (contains(T.tri[t], v)) fan_flat.push_back(t);
+    std::sort(fan_flat.begin() + first, fan_flat.end());
+    fan_flat.erase(std::unique(fan_flat.begin() + first, fan_flat.end()), fan_flat.end());
+    fan_start.push_back(static_cast<int32_t>(fan_flat.size()));
   }
-  // Built into buffers kept from the previous refresh and swapped in (no fresh pages for big sheets).
-  thread_local std::vector<int32_t> offset, vt;
-  thread_local std::vector<Hinge> merged;
+  std::vector<int32_t>& offset = scratch.offset;
+  std::vector<int32_t>& vt = scratch.vt;
   offset.assign(nv + 1, 0);
   vt.clear();
   vt.reserve(topo.vt_tri.size() + 3 * change.triangles.size());
@@ -234,7 +248,7 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
         v = run_end;
       }
       if (k < A.size() && v == A[k]) {
-        vt.insert(vt.end(), fans[k].begin(), fans[k].end());
+        vt.insert(vt.end(), fan_flat.begin() + fan_start[k], fan_flat.begin() + fan_start[k + 1]);
         offset[v + 1] = static_cast<int32_t>(vt.size());
         ++v;
         ++k;
@@ -249,7 +263,8 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   // Neighbours of every triangle around an affected vertex (an edge pairs exactly two triangles, as in
   // build_topology; more stay unpaired).
   topo.neighbor.resize(nt, {-1, -1, -1});
-  std::vector<int32_t> around;
+  std::vector<int32_t>& around = scratch.around;
+  around.clear();
   for (int32_t v : A) around.insert(around.end(), fan_begin(v), fan_end(v));
   std::sort(around.begin(), around.end());
   around.erase(std::unique(around.begin(), around.end()), around.end());
@@ -291,7 +306,7 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   {
     // Kept hinges are copied in runs (a memory-speed copy); a run ends at a dropped hinge or where a fresh
     // one goes in.
-    std::vector<Hinge>& out = merged;
+    std::vector<Hinge>& out = scratch.merged;
     out.clear();
     out.reserve(topo.hinges.size() + fresh.size());
     const std::vector<Hinge>& old = topo.hinges;
