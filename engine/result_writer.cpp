@@ -293,6 +293,15 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out) {
   }
   result["pieces"] = std::move(pieces);
 
+  // The work of the default implicit integrator (zeros with "solver": "projective"): symbolic analyses
+  // (after cuts or a change of the held set), numeric factorisations, spin-brake redos and rejected substeps.
+  const ImplicitStats solver = sim.solver_stats();
+  result["solver"] = ojson{{"analyses", solver.analyses},
+                           {"factorizations", solver.factorizations},
+                           {"brakes", solver.brakes},
+                           {"failures", solver.failures},
+                           {"remeshes", sim.remesh_count()}};
+
   if (!num.finite) result["status"] = "error";
   out = std::move(result);
   return num.finite;

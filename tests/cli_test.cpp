@@ -242,6 +242,14 @@ TEST_F(Cli, RunWritesEveryResultKey) {
   EXPECT_FALSE(j["hash"].get<std::string>().empty());
   for (const char* extra : {"systems_ms", "regions_summary", "pieces"}) EXPECT_TRUE(j.contains(extra)) << extra;
   EXPECT_EQ(j["systems_ms"].size(), 11u);
+  // Solver work: the default implicit integrator factorises at least once per substep (3 frames here, the
+  // scenario's substeps each) and analyses the structure at least once.
+  ASSERT_TRUE(j.contains("solver"));
+  for (const char* key : {"analyses", "factorizations", "brakes", "failures", "remeshes"})
+    EXPECT_TRUE(j["solver"][key].is_number_integer()) << "solver." << key;
+  EXPECT_GE(j["solver"]["factorizations"].get<int>(), 3 * 10);
+  EXPECT_GE(j["solver"]["analyses"].get<int>(), 1);
+  EXPECT_EQ(j["solver"]["failures"].get<int>(), 0);
 
   // No NaN, no inf: the text parses as JSON (which has neither) and has no null numbers.
   const std::string text = read_file(out / "result.json");
