@@ -83,8 +83,9 @@ struct BlockLdltParams {
   int32_t tasks = 8;                  // subtrees to aim for (a few per core, for balance)
   int32_t dissection_leaf = 1500;     // nested dissection (with coordinates) down to parts of this many block
                                       // rows, then AMD; tried from this size on
-  // The supernodal factor from this many block rows, else by columns. Measured on the A4 sheet: at 576
-  // vertices the columns take 1.4 ms, supernodes 2.3 ms; at 5 162, 80 ms against 67 ms (1 thread).
+  // The supernodal factor from this many block rows, else by columns. Measured on the A4 sheet (shared
+  // 2-core machine, best of runs): at 576 vertices the columns take 1.4 ms, supernodes 2.3 ms; at 5 162,
+  // 74-88 ms against 68-72 ms on 1 thread, 69-89 ms against 45-66 ms on 2.
   int32_t min_supernodal_blocks = 2000;
   // Structure of the supernodal factor, the same for every thread count (the result is bit-identical):
   int32_t supernode_width = 32;       // block columns per supernode at most
