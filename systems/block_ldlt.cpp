@@ -584,6 +584,17 @@ void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>
     node_parent = parent;
   }
   split_into_subtrees(node_parent, work, n, params, out);
+  // Which key of a symmetric pair the factor reads: the column path the upper part in factor order, the
+  // supernodal path the lower part (both read the diagonal).
+  {
+    std::vector<int32_t> rank(n);
+    for (int32_t k = 0; k < n; ++k) rank[out.order[k]] = k;
+    out.key_read.resize(keys.size());
+    for (size_t b = 0; b < keys.size(); ++b) {
+      const int32_t r = rank[keys[b].first], c = rank[keys[b].second];
+      out.key_read[b] = r == c || (out.supernodal ? r > c : r < c);
+    }
+  }
   if (out.supernodal)
     out.supernodes.position.assign(out.task_start.size(), std::vector<int32_t>(n, 0));
   else

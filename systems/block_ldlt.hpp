@@ -73,6 +73,9 @@ struct BlockLdlt {
   // (whole subtrees, increasing order); the nodes of `top_nodes` follow, a supernode's row chunks over
   // the threads.
   std::vector<int32_t> task_start, task_nodes, top_nodes;
+  // Per key of the analysis: whether the factorisation reads its value. Of a symmetric pair (i, j), (j, i)
+  // only one is read, so an assembler may skip the other (half the off-diagonal scatter).
+  std::vector<uint8_t> key_read;
   int64_t fill_blocks = 0;    // blocks of L below the diagonal
   int64_t block_updates = 0;  // Σ over columns of c(c+1)/2, c = blocks below the diagonal: 54 flops each
   bool factorized = false;

@@ -33,7 +33,7 @@ struct ImplicitSolver {
   std::vector<int32_t> free_index;                 // vertex → free index, −1 when held
   std::vector<std::pair<int32_t, int32_t>> block_key;  // sorted (I, J) of every non-zero 3x3 block (both halves)
   std::vector<Mat3> block_values;                  // the matrix, one 3x3 block per key
-  std::vector<std::array<int32_t, 9>> tri_block;   // per triangle, corner pair (a, b) → block, −1 if not free
+  std::vector<std::array<int32_t, 9>> tri_block;   // per triangle, corner pair (a, b) → block; −1 if not free or not read by the factor
   std::vector<BendingStencil> stencils;
   struct HeldCoupling {
     int32_t row, held_vertex;
@@ -188,6 +188,10 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
     if (s.free_index[v] >= 0) free_rest[s.free_index[v]] = V.rest[v];
   analyze_block_ldlt(s.free_count, s.block_key, BlockLdltParams{}, s.ldlt, free_rest);
   s.block_values.resize(s.block_key.size());
+  // The factorisation reads one block of each symmetric pair: the triangles scatter into that one only.
+  for (std::array<int32_t, 9>& tb : s.tri_block)
+    for (int32_t& b : tb)
+      if (b >= 0 && !s.ldlt.key_read[b]) b = -1;
   s.analysed = true;
   s.tri_k.resize(nt);
   s.tri_energy.resize(nt);
