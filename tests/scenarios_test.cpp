@@ -27,6 +27,16 @@
 //    24–32% / 22–30%;
 //  - a waiting tip steps along the Er-weighted mean of its directions since its last step: 24% / 25%;
 //  - Fig. 14 with the fingers only lifted (no spreading): 20–54% on four meshes.
+// Traced on four meshes (third session): the first step from the notch is within 2–4° of the mediator
+// (fan of 6–7 triangles, eq. 4 splits it 3|3 or 3|4). The tip a cut leaves has a fan of 3–4 triangles
+// (the end point is usually inserted inside a triangle), eq. 4 splits it 1|2 or 1|3, and the next step is
+// 13–36° off. Right after a cut the tip's cluster forces can also drop 20–80x (17 N → 0.2–0.8 N): the
+// corner forces, hence Er, scale with the size of the fan's triangles, so a tip in small triangles stalls
+// while other points tear. More tried, 16 meshes:
+//  - splitting the edge ahead of each new tip where the tear's line crosses it (the fan gets an edge on
+//    the line): mediator 29 → 21% (max 65 → 49%), hyperbola 23 → 21%, Fig. 14 tears 3.2 → 2.5; but a
+//    straight tear then adds a vertex per step (DESIGN §5.5 keeps it coarse), so it was not kept;
+//  - the principal direction of the fan's mean strain instead of eq. 4's bisector: 25% / 27%, 4.5 tears.
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "systems/topology.hpp"
