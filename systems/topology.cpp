@@ -165,7 +165,7 @@ void refresh_after_topology_change(Sheet& sheet) {
 namespace {
 // Buffers of the local refresh, kept per thread between cuts: a cut runs every few frames and its refresh
 // would otherwise spend more on allocation than on the change itself (small sheets), or fault in fresh
-// pages for the fan and hinge arrays (big ones). The rebuilt arrays are swapped with the topology's.
+// pages for the fan and hinge arrays (big ones).
 struct LocalRefreshScratch {
   std::vector<char> mark;
   std::vector<int32_t> fan_flat, fan_start, around, offset, vt;
@@ -255,8 +255,10 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
       }
     }
   }
-  topo.vt_offset.swap(offset);
-  topo.vt_tri.swap(vt);
+  // Copied, not swapped: the sheet keeps its own buffers (their capacity then depends only on its history,
+  // not on which thread's scratch it met, so batch memory figures are the same at any thread count).
+  topo.vt_offset.assign(offset.begin(), offset.end());
+  topo.vt_tri.assign(vt.begin(), vt.end());
   auto fan_begin = [&](int32_t v) { return topo.vt_tri.begin() + topo.vt_offset[v]; };
   auto fan_end = [&](int32_t v) { return topo.vt_tri.begin() + topo.vt_offset[v + 1]; };
 
@@ -326,7 +328,7 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
     }
     out.insert(out.end(), old.begin() + run, old.end());
     while (f < fresh.size()) out.push_back(fresh[f++].h);
-    topo.hinges.swap(out);
+    topo.hinges.assign(out.begin(), out.end());
   }
 
   // Boundary links, masses and flags of the affected vertices (in fan order: the same last-wins and
