@@ -42,10 +42,11 @@ void report(const char* what, const pt::Simulation& sim) {
   std::printf("%-34s frame %3d: %4d vertices, %4d triangles, %zu tears (longest %.1f cm), %zu label tiles\n", what,
               sim.frame(), s.verts.size(), s.tris.size(), s.tears.size(), 100 * longest_tear(s),
               sim.carve_state().tiles.size());
-  std::printf("%-34s   sheet arrays %zu B + label map %lld B + fiber field %zu B = %lld B (%.1f KiB)\n", "", sheet,
-              static_cast<long long>(carve), sizeof(pt::FiberField),
-              static_cast<long long>(sheet + carve + sizeof(pt::FiberField)),
-              (sheet + carve + sizeof(pt::FiberField)) / 1024.0);
+  const size_t solver = sim.solver_bytes();
+  std::printf("%-34s   sheet arrays %zu B + solver %zu B + label map %lld B + fiber field %zu B = %lld B (%.1f KiB)\n", "",
+              sheet, solver, static_cast<long long>(carve), sizeof(pt::FiberField),
+              static_cast<long long>(sheet + solver + carve + sizeof(pt::FiberField)),
+              (sheet + solver + carve + sizeof(pt::FiberField)) / 1024.0);
 }
 
 }  // namespace

@@ -118,7 +118,7 @@ BatchResult run_batch(const Scenario& base, const BatchOptions& options,
   result.frames = options.frames >= 0 ? options.frames : base.sim.frames;
   result.outcomes.resize(options.sheets);
   std::vector<TimingReport> reports(options.sheets);
-  std::vector<size_t> bytes(options.sheets, 0);
+  std::vector<size_t> bytes(options.sheets, 0), solver_bytes(options.sheets, 0);
   // Triangles processed per sheet (sum over its frames): written by the sheet's task only, merged below.
   // Adding into result.throughput from the tasks raced between workers (TSan, issue 9).
   std::vector<double> triangles(options.sheets, 0.0);
@@ -155,6 +155,7 @@ BatchResult run_batch(const Scenario& base, const BatchOptions& options,
         out.hash = sim.state_hash();
         reports[i] = sim.timings();
         bytes[i] = sheet_bytes(sh);
+        solver_bytes[i] = sim.solver_bytes();
         for (const FrameStats& fs : sim.frame_stats()) triangles[i] += fs.triangles;
       } catch (const std::exception& e) {
         out.status = std::string("error: ") + e.what();
@@ -166,7 +167,7 @@ BatchResult run_batch(const Scenario& base, const BatchOptions& options,
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   // Merge per-sheet reports in sheet order (deterministic sums).
-  size_t total_bytes = 0;
+  size_t total_bytes = 0, total_solver_bytes = 0;
   int64_t sheet_frames = 0;
   for (int32_t i = 0; i < options.sheets; ++i) {
     for (size_t k = 0; k < 11; ++k) {
@@ -180,8 +181,10 @@ BatchResult run_batch(const Scenario& base, const BatchOptions& options,
     }
     sheet_frames += reports[i].frame.count;
     total_bytes += bytes[i];
+    total_solver_bytes += solver_bytes[i];
   }
   result.bytes_per_sheet = options.sheets ? total_bytes / options.sheets : 0;
+  result.solver_bytes_per_sheet = options.sheets ? total_solver_bytes / options.sheets : 0;
   result.sheet_frames_per_s = result.wall_s > 0 ? static_cast<double>(sheet_frames) / result.wall_s : 0.0;
   return result;
 }
@@ -205,6 +208,7 @@ void write_batch_json(const BatchResult& r, const std::string& scenario_name, co
   j["timings_ms"] = timings;
   j["throughput"] = throughput;
   j["bytes_per_sheet"] = r.bytes_per_sheet;
+  j["solver_bytes_per_sheet"] = r.solver_bytes_per_sheet;  // the implicit solver's structure and factor
   nlohmann::ordered_json hashes = nlohmann::json::array(), outcomes = nlohmann::json::array();
   for (const SheetOutcome& o : r.outcomes) {
     hashes.push_back(o.hash);

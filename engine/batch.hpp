@@ -55,6 +55,7 @@ struct BatchResult {
   std::array<SystemThroughput, 11> throughput;  // kSystemNames order
   std::vector<SheetOutcome> outcomes;           // in sheet order
   size_t bytes_per_sheet = 0;                   // average sheet data size (excluding texture), B
+  size_t solver_bytes_per_sheet = 0;            // average memory of the sheet's implicit solver (matrix, factor), B
 };
 
 // The scenario of sheet `index` (seeds derived from the index, variations applied).

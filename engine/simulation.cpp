@@ -486,6 +486,7 @@ const std::vector<FrameStats>& Simulation::frame_stats() const { return impl_->s
 const std::vector<TearEvent>& Simulation::events() const { return impl_->events; }
 const std::vector<std::string>& Simulation::invariant_violations() const { return impl_->violations; }
 int32_t Simulation::remesh_count() const { return impl_->remeshes; }
+size_t Simulation::solver_bytes() const { return impl_->implicit ? implicit_solver_bytes(*impl_->implicit) : 0; }
 ImplicitStats Simulation::solver_stats() const {
   return impl_->implicit ? implicit_solver_stats(*impl_->implicit) : ImplicitStats{};
 }

@@ -104,6 +104,9 @@ class Simulation {
   // Counts of the default implicit integrator so far (all zero with the projective solver): symbolic
   // analyses (after cuts or a change of the held set), numeric factorisations, spin-brake redos, failures.
   ImplicitStats solver_stats() const;
+  // Heap bytes the default implicit integrator keeps for this sheet (0 with projective dynamics or before
+  // the first substep), for memory reports.
+  size_t solver_bytes() const;
   int32_t threads() const;
 
   // Hex digest (FNV-1a 64 over the bit patterns of x, v, rest, triangles, tears) of the current state.

@@ -713,4 +713,30 @@ void solve_block_ldlt(const BlockLdlt& f, const double* b, double* x) {
   for (int32_t k = 0; k < f.n; ++k) Eigen::Map<Vec3>(x + 3 * f.order[k]) = z.segment<3>(3 * k);
 }
 
+namespace {
+template <class T>
+size_t capacity_bytes(const std::vector<T>& v) {
+  return v.capacity() * sizeof(T);
+}
+}  // namespace
+
+size_t block_ldlt_bytes(const BlockLdlt& l) {
+  const ColumnFactor& c = l.columns;
+  const SupernodalFactor& sn = l.supernodes;
+  size_t b = capacity_bytes(l.order) + capacity_bytes(l.key_read) + capacity_bytes(l.task_start) +
+             capacity_bytes(l.task_nodes) + capacity_bytes(l.top_nodes);
+  b += capacity_bytes(c.column_start) + capacity_bytes(c.column_row) + capacity_bytes(c.column_key) +
+       capacity_bytes(c.diagonal_key) + capacity_bytes(c.l_start) + capacity_bytes(c.l_row) +
+       capacity_bytes(c.pattern_start) + capacity_bytes(c.pattern_column) + capacity_bytes(c.pattern_slot) +
+       capacity_bytes(c.l_blocks) + capacity_bytes(c.d_inverse) + capacity_bytes(c.work);
+  for (const auto& w : c.work) b += capacity_bytes(w);
+  b += capacity_bytes(sn.super_start) + capacity_bytes(sn.row_start) + capacity_bytes(sn.super_row) +
+       capacity_bytes(sn.panel_start) + capacity_bytes(sn.panel) + capacity_bytes(sn.update_start) +
+       capacity_bytes(sn.update_source) + capacity_bytes(sn.update_first) + capacity_bytes(sn.update_last) +
+       capacity_bytes(sn.chunk_first) + capacity_bytes(sn.chunk_begin) + capacity_bytes(sn.assembly_start) +
+       capacity_bytes(sn.assembly_key) + capacity_bytes(sn.assembly_offset) + capacity_bytes(sn.position);
+  for (const auto& p : sn.position) b += capacity_bytes(p);
+  return b;
+}
+
 }  // namespace pt

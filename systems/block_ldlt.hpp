@@ -109,6 +109,9 @@ bool factorize_block_ldlt(const std::vector<Mat3>& values, const RangeRunner& ru
 // x = A⁻¹ b for vectors of 3n entries (vertex-major). `x` may alias `b`.
 void solve_block_ldlt(const BlockLdlt& ldlt, const double* b, double* x);
 
+// Heap bytes held by the analysis and the factor (capacity based), for memory accounting.
+size_t block_ldlt_bytes(const BlockLdlt& ldlt);
+
 // Number of 3x3 blocks stored in L (fill-in measure).
 inline int64_t block_ldlt_fill(const BlockLdlt& ldlt) { return ldlt.fill_blocks; }
 

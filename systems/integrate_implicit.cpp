@@ -90,6 +90,23 @@ void ImplicitSolverDeleter::operator()(ImplicitSolver* s) const { delete s; }
 const ImplicitStats& implicit_solver_stats(const ImplicitSolver& solver) { return solver.stats; }
 
 namespace {
+template <class T>
+size_t capacity_bytes(const std::vector<T>& v) {
+  return v.capacity() * sizeof(T);
+}
+}  // namespace
+
+size_t implicit_solver_bytes(const ImplicitSolver& s) {
+  return sizeof(ImplicitSolver) + capacity_bytes(s.held) + capacity_bytes(s.free_index) + capacity_bytes(s.block_key) +
+         capacity_bytes(s.block_column) + capacity_bytes(s.block_values) + capacity_bytes(s.tri_block) +
+         capacity_bytes(s.stencils) + capacity_bytes(s.bending_held) + capacity_bytes(s.base_values) +
+         block_ldlt_bytes(s.ldlt) + capacity_bytes(s.tri_k) + capacity_bytes(s.tri_energy) +
+         capacity_bytes(s.tri_check) + capacity_bytes(s.next_frame) + capacity_bytes(s.next_corners) +
+         static_cast<size_t>(s.rhs.size() + s.solution.size()) * sizeof(double) + capacity_bytes(s.velocity_next) +
+         capacity_bytes(s.row_start) + capacity_bytes(s.pair_row) + capacity_bytes(s.pair_column);
+}
+
+namespace {
 
 void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vector<int32_t> held_sorted,
                      ImplicitSolver& s) {

@@ -72,6 +72,8 @@ struct ImplicitStats {
   int64_t brakes = 0;          // substeps redone with the spin brake (energy check failed)
 };
 const ImplicitStats& implicit_solver_stats(const ImplicitSolver& solver);
+// Heap bytes the solver keeps between substeps (structure, matrix values, factor, scratch), capacity based.
+size_t implicit_solver_bytes(const ImplicitSolver& solver);
 
 // One substep. `held[i]` is prescribed to `held_target[i]` at the end of the substep. The solver is
 // (re)built when the topology version, the held set, the material or dt changed. Writes x, v and the
