@@ -9,20 +9,25 @@
 
 namespace pt {
 
+namespace {
+// Rest data of one triangle: the inverse of [r1 − r0, r2 − r0] and the signed pattern area.
+void rest_data_of(const std::vector<Vec2>& rest, const Tri& tri, Mat2& rest_inv, double& rest_area) {
+  const Vec2& a = rest[tri[0]];
+  Mat2 dm;
+  dm.col(0) = rest[tri[1]] - a;
+  dm.col(1) = rest[tri[2]] - a;
+  const double det = dm.determinant();
+  rest_area = 0.5 * det;
+  rest_inv = det != 0 ? Mat2(dm.inverse()) : Mat2::Zero();
+}
+}  // namespace
+
 void update_rest_data(const std::vector<Vec2>& rest, const std::vector<Tri>& tri,
                       std::vector<Mat2>& rest_inv, std::vector<double>& rest_area) {
   const size_t n = tri.size();
   rest_inv.resize(n);
   rest_area.resize(n);
-  for (size_t t = 0; t < n; ++t) {
-    const Vec2& a = rest[tri[t][0]];
-    Mat2 dm;
-    dm.col(0) = rest[tri[t][1]] - a;
-    dm.col(1) = rest[tri[t][2]] - a;
-    const double det = dm.determinant();
-    rest_area[t] = 0.5 * det;
-    rest_inv[t] = det != 0 ? Mat2(dm.inverse()) : Mat2::Zero();
-  }
+  for (size_t t = 0; t < n; ++t) rest_data_of(rest, tri[t], rest_inv[t], rest_area[t]);
 }
 
 void lump_masses(const std::vector<Tri>& tri, const std::vector<double>& rest_area,
@@ -32,6 +37,33 @@ void lump_masses(const std::vector<Tri>& tri, const std::vector<double>& rest_ar
   for (size_t t = 0; t < tri.size(); ++t)
     for (int32_t c : tri[t]) mass[c] += areal_density * rest_area[t] / 3.0;
 }
+
+namespace {
+// Pieces by flood fill over neighbours, seeded in ascending triangle order (so a piece's number follows its
+// lowest triangle). Returns the number of pieces.
+int32_t flood_fill_pieces(const std::vector<std::array<int32_t, 3>>& neighbor, std::vector<int32_t>& piece) {
+  const int32_t nt = static_cast<int32_t>(neighbor.size());
+  piece.assign(nt, -1);
+  std::vector<int32_t> stack;
+  int32_t count = 0;
+  for (int32_t s = 0; s < nt; ++s) {
+    if (piece[s] >= 0) continue;
+    piece[s] = count;
+    stack.push_back(s);
+    while (!stack.empty()) {
+      const int32_t t = stack.back();
+      stack.pop_back();
+      for (int32_t n : neighbor[t])
+        if (n >= 0 && piece[n] < 0) {
+          piece[n] = count;
+          stack.push_back(n);
+        }
+    }
+    ++count;
+  }
+  return count;
+}
+}  // namespace
 
 void build_topology(const std::vector<Tri>& tri, int32_t vertex_count, Topology& topo,
                     std::vector<int32_t>& piece) {
@@ -101,26 +133,7 @@ void build_topology(const std::vector<Tri>& tri, int32_t vertex_count, Topology&
         topo.boundary_next[a] = b;
         topo.boundary_prev[b] = a;
       }
-  // Pieces by flood fill over neighbours, seeded in ascending triangle order.
-  piece.assign(nt, -1);
-  std::vector<int32_t> stack;
-  int32_t count = 0;
-  for (int32_t s = 0; s < nt; ++s) {
-    if (piece[s] >= 0) continue;
-    piece[s] = count;
-    stack.push_back(s);
-    while (!stack.empty()) {
-      const int32_t t = stack.back();
-      stack.pop_back();
-      for (int32_t n : topo.neighbor[t])
-        if (n >= 0 && piece[n] < 0) {
-          piece[n] = count;
-          stack.push_back(n);
-        }
-    }
-    ++count;
-  }
-  topo.piece_count = count;
+  topo.piece_count = flood_fill_pieces(topo.neighbor, piece);
 }
 
 double interior_pattern_angle(const Topology& topo, const std::vector<Vec2>& rest, int32_t v) {
@@ -203,15 +216,7 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   T.side.resize(nt, 0);
   T.rest_inv.resize(nt);
   T.rest_area.resize(nt);
-  for (int32_t t : change.triangles) {  // update_rest_data for the changed triangles only
-    const Vec2& a = V.rest[T.tri[t][0]];
-    Mat2 dm;
-    dm.col(0) = V.rest[T.tri[t][1]] - a;
-    dm.col(1) = V.rest[T.tri[t][2]] - a;
-    const double det = dm.determinant();
-    T.rest_area[t] = 0.5 * det;
-    T.rest_inv[t] = det != 0 ? Mat2(dm.inverse()) : Mat2::Zero();
-  }
+  for (int32_t t : change.triangles) rest_data_of(V.rest, T.tri[t], T.rest_inv[t], T.rest_area[t]);
 
   // Fans: the affected vertices' from their old fan and the changed triangles; runs of unaffected vertices
   // copied as blocks (their fans hold no changed, moved or removed triangle).
@@ -363,26 +368,7 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   // Pieces: a cut that reached the boundary may part the sheet (flood fill again); otherwise the changed
   // triangles kept their parent's piece and only the numbering by lowest triangle may need restoring.
   if (change.pieces_may_split) {
-    std::vector<int32_t>& piece = T.piece;
-    piece.assign(nt, -1);
-    std::vector<int32_t> stack;
-    int32_t count = 0;
-    for (int32_t s0 = 0; s0 < nt; ++s0) {
-      if (piece[s0] >= 0) continue;
-      piece[s0] = count;
-      stack.push_back(s0);
-      while (!stack.empty()) {
-        const int32_t t = stack.back();
-        stack.pop_back();
-        for (int32_t n : topo.neighbor[t])
-          if (n >= 0 && piece[n] < 0) {
-            piece[n] = count;
-            stack.push_back(n);
-          }
-      }
-      ++count;
-    }
-    topo.piece_count = count;
+    topo.piece_count = flood_fill_pieces(topo.neighbor, T.piece);
   } else if (topo.piece_count > 1) {
     std::vector<int32_t> order(topo.piece_count, -1);  // old piece id → new, by first appearance
     int32_t next_id = 0;
