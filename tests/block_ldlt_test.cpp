@@ -118,6 +118,22 @@ Eigen::VectorXd multiply(const Keys& keys, const std::vector<Mat3>& values, cons
   return y;
 }
 
+// Runs every task on its own real thread, started in reverse order: a task split whose result depended on
+// the order or the interleaving would show it.
+const RangeRunner reversed_threads = [](int32_t count, int32_t, const RangeTask& task) {
+  std::vector<std::thread> threads;
+  for (int32_t t = count - 1; t >= 0; --t) threads.emplace_back([&task, t] { task(t, t + 1); });
+  for (std::thread& th : threads) th.join();
+};
+
+// ‖A x − b‖ / ‖b‖ for x = the factor's solution of a random b: the check every factorisation test ends with.
+double solve_residual(const BlockLdlt& ldlt, const Keys& keys, const std::vector<Mat3>& values, int32_t n) {
+  const Eigen::VectorXd b = Eigen::VectorXd::Random(3 * n);
+  Eigen::VectorXd x(3 * n);
+  solve_block_ldlt(ldlt, b.data(), x.data());
+  return (multiply(keys, values, x) - b).norm() / b.norm();
+}
+
 // Both factors: by columns (the default below 2 000 block rows) and supernodal (forced).
 std::vector<std::pair<const char*, BlockLdltParams>> both_paths() {
   return {{"columns", BlockLdltParams{}}, {"supernodal", BlockLdltParams{.min_supernodal_blocks = 0}}};
@@ -221,11 +237,6 @@ TEST(BlockLdlt, SubtreeTasksGiveTheBitIdenticalFactorInAnyOrder) {
   ASSERT_GT(split.task_start.size(), 3u) << "the tree was not split";
   EXPECT_LT(split.top_nodes.size(), split.task_nodes.size() / 4) << "the top chain is a separator, not the grid";
   ASSERT_TRUE(factorize_block_ldlt(values, run_serial, serial));
-  const RangeRunner reversed_threads = [](int32_t count, int32_t, const RangeTask& task) {
-    std::vector<std::thread> threads;
-    for (int32_t t = count - 1; t >= 0; --t) threads.emplace_back([&task, t] { task(t, t + 1); });
-    for (std::thread& th : threads) th.join();
-  };
   for (int round = 0; round < 2; ++round) {
     ASSERT_TRUE(factorize_block_ldlt(values, reversed_threads, split));
     ASSERT_EQ(serial.columns.l_blocks.size(), split.columns.l_blocks.size());
@@ -255,10 +266,7 @@ TEST(BlockLdlt, NestedDissectionIsAPermutationAndSolves) {
   EXPECT_TRUE(nd.supernodal);
   const std::vector<Mat3> values = random_values(keys, n, 0.5, rng);
   ASSERT_TRUE(factorize_block_ldlt(values, run_serial, nd));
-  const Eigen::VectorXd b = Eigen::VectorXd::Random(3 * n);
-  Eigen::VectorXd x(3 * n);
-  solve_block_ldlt(nd, b.data(), x.data());
-  EXPECT_LE((multiply(keys, values, x) - b).norm(), 1e-11 * b.norm());
+  EXPECT_LE(solve_residual(nd, keys, values, n), 1e-11);
 }
 
 TEST(BlockLdlt, SupernodalFactorSolvesLikeADenseCholesky) {
@@ -322,10 +330,7 @@ TEST(BlockLdlt, SupernodalFactorRefusesPivotsAnywhereAndRecovers) {
     EXPECT_FALSE(factorize_block_ldlt(values, run_serial, ldlt));
   }
   ASSERT_TRUE(factorize_block_ldlt(good, run_serial, ldlt));
-  const Eigen::VectorXd b = Eigen::VectorXd::Random(3 * n);
-  Eigen::VectorXd x(3 * n);
-  solve_block_ldlt(ldlt, b.data(), x.data());
-  EXPECT_LE((multiply(keys, good, x) - b).norm(), 1e-11 * b.norm());
+  EXPECT_LE(solve_residual(ldlt, keys, good, n), 1e-11);
 }
 
 TEST(BlockLdlt, SupernodalChunksAndTasksGiveTheBitIdenticalFactorInAnyOrder) {
@@ -345,11 +350,6 @@ TEST(BlockLdlt, SupernodalChunksAndTasksGiveTheBitIdenticalFactorInAnyOrder) {
     chunked_top += split.supernodes.chunk_first[s + 1] - split.supernodes.chunk_first[s] > 2;
   ASSERT_GT(chunked_top, 0) << "no top supernode in chunks";
   ASSERT_TRUE(factorize_block_ldlt(values, run_serial, serial));
-  const RangeRunner reversed_threads = [](int32_t count, int32_t, const RangeTask& task) {
-    std::vector<std::thread> threads;
-    for (int32_t t = count - 1; t >= 0; --t) threads.emplace_back([&task, t] { task(t, t + 1); });
-    for (std::thread& th : threads) th.join();
-  };
   for (int round = 0; round < 2; ++round) {
     ASSERT_TRUE(factorize_block_ldlt(values, reversed_threads, split));
     ASSERT_EQ(serial.supernodes.panel.size(), split.supernodes.panel.size());
