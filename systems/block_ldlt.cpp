@@ -626,10 +626,18 @@ bool factorize_columns(const std::vector<Mat3>& values, const RangeRunner& run, 
   return ok[tasks] != 0;
 }
 
+// The calling thread's scratch for the dense products (fully overwritten at each use). Reached through a
+// function so that each worker thread constructs its own copy and registers its destructor: a block-scope
+// thread_local of the caller, named from a lambda that runs on a worker, would be used there without ever
+// being constructed, and leak (LeakSanitizer caught it).
+std::vector<double>& product_scratch() {
+  thread_local std::vector<double> product;
+  return product;
+}
+
 bool factorize_supernodes(const std::vector<Mat3>& values, const RangeRunner& run, BlockLdlt& f) {
   SupernodalFactor& sf = f.supernodes;
   const int32_t tasks = static_cast<int32_t>(f.task_start.size()) - 1;
-  thread_local std::vector<double> product;  // scratch of the dense products, fully overwritten at each use
   std::vector<char> ok(tasks, 1);
   // A subtree task runs its supernodes one after the other, each chunk in order.
   run(tasks, 1, [&](int32_t begin, int32_t end) {
@@ -639,7 +647,7 @@ bool factorize_supernodes(const std::vector<Mat3>& values, const RangeRunner& ru
         const int32_t s = f.task_nodes[q];
         set_positions(s, sf, position);
         for (int32_t c = sf.chunk_first[s]; c + 1 < sf.chunk_first[s + 1]; ++c)
-          update_chunk(values, s, c, position, product, sf);
+          update_chunk(values, s, c, position, product_scratch(), sf);
         if (!factor_diagonal(s, sf)) {
           ok[t] = 0;
           break;
@@ -656,7 +664,7 @@ bool factorize_supernodes(const std::vector<Mat3>& values, const RangeRunner& ru
     set_positions(s, sf, position);
     const int32_t first = sf.chunk_first[s], chunks = sf.chunk_first[s + 1] - first - 1;
     run(chunks, 1, [&](int32_t begin, int32_t end) {
-      for (int32_t c = begin; c < end; ++c) update_chunk(values, s, first + c, position, product, sf);
+      for (int32_t c = begin; c < end; ++c) update_chunk(values, s, first + c, position, product_scratch(), sf);
     });
     if (!factor_diagonal(s, sf)) return false;
     run(chunks, 1, [&](int32_t begin, int32_t end) {
