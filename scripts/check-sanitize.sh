@@ -17,8 +17,9 @@ asan_dir=${ASAN_BUILD:-build-asan}
 tsan_dir=${TSAN_BUILD:-build-tsan}
 tbb_tsan_dir=${TBB_TSAN_BUILD:-build-tbb-tsan}
 # Threaded tests: scenarios (two pulls, 1 vs 2 threads), the CLI (run, batch, thread-independent hash),
-# the hostile motions (threads 2) and the viewer replay (engine driven by recorded sessions).
-tsan_filter=${TSAN_FILTER:-'^(Scenarios|Cli|Hostile)\.|viewer_replay'}
+# the hostile motions (threads 2), the viewer replay (engine driven by recorded sessions) and the block LDLT
+# (subtree tasks and supernode row chunks run on real threads in reverse order).
+tsan_filter=${TSAN_FILTER:-'^(Scenarios|Cli|Hostile|BlockLdlt)\.|viewer_replay'}
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 
@@ -108,7 +109,7 @@ run_tsan() {
     -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread" -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=thread"
   local t0=$(date +%s)
   # Only what the threaded tests need (the unit tests of single systems are serial).
-  local targets=(scenarios_test cli_test hostile_test)
+  local targets=(scenarios_test cli_test hostile_test block_ldlt_test)
   local t
   for t in papertear_cli viewer_replay_test; do
     cmake --build "$tsan_dir" --target help | grep -q "^$t:" && targets+=("$t")
