@@ -1,5 +1,7 @@
 #include "engine/batch.hpp"
 
+#include "components/capacity_bytes.hpp"
+
 #include <nlohmann/json.hpp>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
@@ -72,23 +74,22 @@ void apply_variation(const std::string& key, double value, Scenario& s) {
   }
 }
 
-template <class T>
-size_t bytes_of(const std::vector<T>& v) {
-  return v.capacity() * sizeof(T);
-}
 }  // namespace
 
 size_t sheet_bytes(const Sheet& s) {
   size_t b = sizeof(Sheet);
-  b += bytes_of(s.verts.x) + bytes_of(s.verts.v) + bytes_of(s.verts.force) + bytes_of(s.verts.rest) +
-       bytes_of(s.verts.mass) + bytes_of(s.verts.flags) + bytes_of(s.verts.tear);
-  b += bytes_of(s.tris.tri) + bytes_of(s.tris.rest_inv) + bytes_of(s.tris.rest_area) +
-       bytes_of(s.tris.corner_force) + bytes_of(s.tris.region) + bytes_of(s.tris.piece) + bytes_of(s.tris.side);
-  b += bytes_of(s.topo.vt_offset) + bytes_of(s.topo.vt_tri) + bytes_of(s.topo.neighbor) + bytes_of(s.topo.hinges) +
-       bytes_of(s.topo.boundary_next) + bytes_of(s.topo.boundary_prev);
-  b += bytes_of(s.regions) + bytes_of(s.tips) + bytes_of(s.tears) + bytes_of(s.fingers) + bytes_of(s.hands);
-  for (const Tear& t : s.tears) b += bytes_of(t.tips) + bytes_of(t.detail);
-  for (const Finger& f : s.fingers) b += bytes_of(f.keys) + f.name.capacity();
+  b += capacity_bytes(s.verts.x) + capacity_bytes(s.verts.v) + capacity_bytes(s.verts.force) +
+       capacity_bytes(s.verts.rest) + capacity_bytes(s.verts.mass) + capacity_bytes(s.verts.flags) +
+       capacity_bytes(s.verts.tear);
+  b += capacity_bytes(s.tris.tri) + capacity_bytes(s.tris.rest_inv) + capacity_bytes(s.tris.rest_area) +
+       capacity_bytes(s.tris.corner_force) + capacity_bytes(s.tris.region) + capacity_bytes(s.tris.piece) +
+       capacity_bytes(s.tris.side);
+  b += capacity_bytes(s.topo.vt_offset) + capacity_bytes(s.topo.vt_tri) + capacity_bytes(s.topo.neighbor) +
+       capacity_bytes(s.topo.hinges) + capacity_bytes(s.topo.boundary_next) + capacity_bytes(s.topo.boundary_prev);
+  b += capacity_bytes(s.regions) + capacity_bytes(s.tips) + capacity_bytes(s.tears) + capacity_bytes(s.fingers) +
+       capacity_bytes(s.hands);
+  for (const Tear& t : s.tears) b += capacity_bytes(t.tips) + capacity_bytes(t.detail);
+  for (const Finger& f : s.fingers) b += capacity_bytes(f.keys) + f.name.capacity();
   return b;
 }
 

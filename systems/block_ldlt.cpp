@@ -1,5 +1,7 @@
 #include "systems/block_ldlt.hpp"
 
+#include "components/capacity_bytes.hpp"
+
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <Eigen/OrderingMethods>
@@ -721,12 +723,6 @@ void solve_block_ldlt(const BlockLdlt& f, const double* b, double* x) {
   for (int32_t k = 0; k < f.n; ++k) Eigen::Map<Vec3>(x + 3 * f.order[k]) = z.segment<3>(3 * k);
 }
 
-namespace {
-template <class T>
-size_t capacity_bytes(const std::vector<T>& v) {
-  return v.capacity() * sizeof(T);
-}
-}  // namespace
 
 size_t block_ldlt_bytes(const BlockLdlt& l) {
   const ColumnFactor& c = l.columns;

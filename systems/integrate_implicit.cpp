@@ -2,6 +2,8 @@
 
 #include "systems/block_ldlt.hpp"
 
+#include "components/capacity_bytes.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -89,12 +91,6 @@ Mat2 tensile_part(const Mat2& stress) {
 void ImplicitSolverDeleter::operator()(ImplicitSolver* s) const { delete s; }
 const ImplicitStats& implicit_solver_stats(const ImplicitSolver& solver) { return solver.stats; }
 
-namespace {
-template <class T>
-size_t capacity_bytes(const std::vector<T>& v) {
-  return v.capacity() * sizeof(T);
-}
-}  // namespace
 
 size_t implicit_solver_bytes(const ImplicitSolver& s) {
   return sizeof(ImplicitSolver) + capacity_bytes(s.held) + capacity_bytes(s.free_index) + capacity_bytes(s.block_key) +

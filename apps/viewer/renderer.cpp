@@ -379,22 +379,19 @@ bool Renderer::init() {
   glVertexAttribPointer(2, 2, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(6 * sizeof(float)));
   glVertexAttribPointer(3, 1, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(8 * sizeof(float)));
   for (int i = 0; i < 4; ++i) glEnableVertexAttribArray(i);
-  glGenVertexArrays(1, &line_vao_);
-  glGenBuffers(1, &line_vbo_);
-  glBindVertexArray(line_vao_);
-  glBindBuffer(GL_ARRAY_BUFFER, line_vbo_);
-  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(0));
-  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(3 * sizeof(float)));
-  glEnableVertexAttribArray(0);
-  glEnableVertexAttribArray(1);
-  glGenVertexArrays(1, &pattern_vao_);
-  glGenBuffers(1, &pattern_vbo_);
-  glBindVertexArray(pattern_vao_);
-  glBindBuffer(GL_ARRAY_BUFFER, pattern_vbo_);
-  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(0));
-  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(3 * sizeof(float)));
-  glEnableVertexAttribArray(0);
-  glEnableVertexAttribArray(1);
+  // Lines and the pattern inset share one vertex layout: position and colour, three floats each.
+  auto position_colour_vao = [](unsigned& vao, unsigned& vbo) {
+    glGenVertexArrays(1, &vao);
+    glGenBuffers(1, &vbo);
+    glBindVertexArray(vao);
+    glBindBuffer(GL_ARRAY_BUFFER, vbo);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(0));
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(3 * sizeof(float)));
+    glEnableVertexAttribArray(0);
+    glEnableVertexAttribArray(1);
+  };
+  position_colour_vao(line_vao_, line_vbo_);
+  position_colour_vao(pattern_vao_, pattern_vbo_);
   glBindVertexArray(0);
   glGenTextures(1, &paper_tex_);
   glGenTextures(1, &label_tex_);
