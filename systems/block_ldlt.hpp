@@ -5,9 +5,9 @@
 // re-permutes the whole matrix on every numeric factorisation. The ordering (AMD on the vertex graph, or
 // a geometric nested dissection when the vertices' 2D coordinates are given and it needs fewer updates),
 // the elimination tree and every pattern are computed once per structure. Two numeric factors:
-// - below `min_supernodal_blocks`, LDLᵀ by block columns: the up-looking algorithm (Davis, "Algorithm
-//   849: a concise sparse Cholesky factorization package", ACM TOMS 2005) over 3x3 blocks, one lookup
-//   per 27 multiply-adds; fastest on small sheets, where dense kernels do not pay their call overhead;
+// - below `min_supernodal_blocks`, block Cholesky by block columns: the up-looking algorithm (Davis,
+//   "Algorithm 849: a concise sparse Cholesky factorization package", ACM TOMS 2005) over 3x3 blocks, one
+//   lookup per 27 multiply-adds; fastest on small sheets, where dense kernels do not pay their call overhead;
 // - above, a left-looking supernodal Cholesky L Lᵀ (as CHOLMOD): runs of columns with nested patterns
 //   stored as dense panels, each descendant's update one dense product, the diagonal block by a dense
 //   Cholesky and the rows below by a triangular solve (Eigen's blocked kernels).
@@ -31,8 +31,8 @@ namespace pt {
 
 using Mat3 = Eigen::Matrix3d;
 
-// Column path (small matrices): L unit block-lower-triangular by block columns, D block diagonal with
-// 3x3 SPD blocks stored inverted, computed column by column.
+// Column path (small matrices): block Cholesky L Lᵀ = A computed column by column (up-looking); the
+// blocks below the diagonal by columns, the diagonal blocks C_k (3x3 lower triangular) stored inverted.
 struct ColumnFactor {
   // Upper part of the permuted matrix, per factor column k: rows i < k and the key each block comes from.
   std::vector<int32_t> column_start, column_row, column_key;
@@ -41,7 +41,7 @@ struct ColumnFactor {
   // each L(k, i) is written to (entries of column i before that slot have rows < k).
   std::vector<int32_t> l_start, l_row;
   std::vector<int32_t> pattern_start, pattern_column, pattern_slot;
-  std::vector<Mat3> l_blocks, d_inverse;
+  std::vector<Mat3> l_blocks, c_inverse;
   std::vector<std::vector<Mat3>> work;  // scattered column per task (+1 for the top), zero between uses
 };
 

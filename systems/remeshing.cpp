@@ -443,6 +443,18 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
       }
       if (on_edge) {
         const auto [u, w] = edges[best_edge];
+        // A point at an end of the edge is that vertex: splitting the edge there would leave a sliver
+        // (measured: a vertex 2·10⁻⁸ m from another, pivots of condition 10¹⁷ in the implicit solve). Go to
+        // the vertex, or end the cut where it stands when the vertex may not be snapped to.
+        const double edge_length = (C.r(w) - C.r(u)).norm();
+        const int32_t end_vertex = best_s * edge_length < r_edge ? u : (1 - best_s) * edge_length < r_edge ? w : -1;
+        if (end_vertex >= 0) {
+          if (end_vertex != cur && snappable(end_vertex)) {
+            path.push_back(end_vertex);
+            reached_boundary = C.boundary_vertex(end_vertex);
+          }
+          break;
+        }
         const bool boundary = C.boundary_edge(u, w);
         const double s = std::clamp(best_s, 1e-6, 1.0 - 1e-6);
         path.push_back(C.split_edge(u, w, s, tear_id));
@@ -466,6 +478,9 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
     if (u >= 0 && !((next - C.r(u)).norm() < dn)) u = -1;
     const Vec2 point = u >= 0 ? C.r(u) : Vec2(A + s * (B - A));
     if (!((next - point).norm() < dn)) break;  // no progress (rounding): stop the tear at cur
+    // A crossing at an end of the edge that may not be snapped to would split the edge into a sliver: the
+    // tear stops at cur instead.
+    if (u < 0 && std::min(s, 1 - s) * ab_len < r_edge) break;
     if (u >= 0) {
       path.push_back(u);
       from_crossing = false;

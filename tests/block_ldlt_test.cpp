@@ -242,7 +242,7 @@ TEST(BlockLdlt, SubtreeTasksGiveTheBitIdenticalFactorInAnyOrder) {
     ASSERT_EQ(serial.columns.l_blocks.size(), split.columns.l_blocks.size());
     for (size_t p = 0; p < serial.columns.l_blocks.size(); ++p)
       ASSERT_EQ(serial.columns.l_blocks[p], split.columns.l_blocks[p]) << p;
-    for (int32_t k = 0; k < n; ++k) ASSERT_EQ(serial.columns.d_inverse[k], split.columns.d_inverse[k]) << k;
+    for (int32_t k = 0; k < n; ++k) ASSERT_EQ(serial.columns.c_inverse[k], split.columns.c_inverse[k]) << k;
   }
 }
 
