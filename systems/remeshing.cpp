@@ -24,6 +24,10 @@
 namespace pt {
 namespace {
 
+// An edge is never split closer to one of its ends than this fraction of its length (a sliver whose
+// stiffness the implicit solve cannot factor).
+constexpr double kEdgeEnd = 0.01;
+
 double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 
 bool contains(const Tri& t, int32_t v) { return t[0] == v || t[1] == v || t[2] == v; }
@@ -446,8 +450,7 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
         // A point at an end of the edge is that vertex: splitting the edge there would leave a sliver
         // (measured: a vertex 2·10⁻⁸ m from another, pivots of condition 10¹⁷ in the implicit solve). Go to
         // the vertex, or end the cut where it stands when the vertex may not be snapped to.
-        const double edge_length = (C.r(w) - C.r(u)).norm();
-        const int32_t end_vertex = best_s * edge_length < r_edge ? u : (1 - best_s) * edge_length < r_edge ? w : -1;
+        const int32_t end_vertex = best_s < kEdgeEnd ? u : 1 - best_s < kEdgeEnd ? w : -1;
         if (end_vertex >= 0) {
           if (end_vertex != cur && snappable(end_vertex)) {
             path.push_back(end_vertex);
@@ -480,7 +483,7 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
     if (!((next - point).norm() < dn)) break;  // no progress (rounding): stop the tear at cur
     // A crossing at an end of the edge that may not be snapped to would split the edge into a sliver: the
     // tear stops at cur instead.
-    if (u < 0 && std::min(s, 1 - s) * ab_len < r_edge) break;
+    if (u < 0 && std::min(s, 1 - s) < kEdgeEnd) break;
     if (u >= 0) {
       path.push_back(u);
       from_crossing = false;

@@ -31,6 +31,8 @@ struct CutResult {
 //   - snapping: an edge crossing within snap_fraction of an edge's length from one of its ends goes through
 //     that vertex; the end snaps to a corner closer than snap_fraction of the corner's shorter edge, or onto
 //     an edge when very close to it (or when that avoids an angle below min_angle_deg). `end` is the result.
+//     No edge is split within 1% of its length from an end: the cut goes to that vertex, or stops where it
+//     stands when the vertex may not be snapped to (such slivers made the implicit solve refuse substeps).
 //   - p is removed only when both lips come back along the same line (p was a tip between the two copies of
 //     the previous tear vertex), no finger holds it, and both collapses keep every triangle CCW; removal
 //     conserves the total pattern area exactly. A Tip whose vertex was p then points at the vertex p merged
