@@ -1,4 +1,4 @@
-// papertear-viewer [SCENARIO] [--frames N --screenshot FILE.png] [--threads N]   (DESIGN §7, issue 7)
+// papertear-viewer [SCENARIO] [--frames N --screenshot FILE.png] [--threads N] [--realtime]   (DESIGN §7, issue 7)
 //
 // Mouse: left click on the sheet puts a finger there (a vertex is inserted at the picked pattern point)
 // and dragging moves it in the view plane (Shift: in depth); left drag on a finger grabs it (and every
@@ -21,6 +21,7 @@
 #include <stb_image_write.h>
 
 #include "apps/viewer/recorder.hpp"
+#include "apps/viewer/simulation_clock.hpp"
 #include "apps/viewer/renderer.hpp"
 #include "engine/picking.hpp"
 #include "engine/scenario.hpp"
@@ -73,12 +74,15 @@ struct Options {
   int samples = 0;  // MSAA samples (llvmpipe: 4× costs several times the fill time)
   bool demo_drag = false;  // headless: click two points of the sheet and pull them apart with the mouse code
   std::string record;      // headless: record the session to this file at the end
+  // Headless runs step the simulation once per rendered frame (lockstep: reproducible, what the tests use);
+  // --realtime makes them tick like an interactive session, for measuring it under xvfb.
+  bool realtime = false;
 };
 
 void usage() {
   std::fprintf(stderr,
                "usage: papertear-viewer [SCENARIO] [--frames N] [--screenshot FILE.png] [--threads N] "
-               "[--size WxH] [--msaa N]\n");
+               "[--size WxH] [--msaa N] [--realtime]\n");
 }
 
 bool parse_args(int argc, char** argv, Options& o) {
@@ -111,6 +115,8 @@ bool parse_args(int argc, char** argv, Options& o) {
     } else if (a == "--threads") {
       const char* v = value("--threads");
       if (!v || !number(v, 1, 256, o.threads)) return false;
+    } else if (a == "--realtime") {
+      o.realtime = true;
     } else if (a == "--demo-drag") {
       o.demo_drag = true;
     } else if (a == "--record") {
@@ -194,6 +200,7 @@ struct App {
   int finger_counter = 0;
   std::array<Series, 5> series;  // physics, geometry, tearing, carving, frame
   Series sim_ms, render_ms, sheet_ms, ui_ms;
+  viewer::SimulationClock sim_clock;
   // The ImGui windows (panel, tooltips) drawn into a layer at most every kPanelPeriod s, or every frame
   // while the user works in them; composited over the scene every frame (see draw_ui).
   Layer ui_layer;  // the windows over transparent black (premultiplied)
@@ -248,16 +255,19 @@ struct App {
 
   // --- simulation ---------------------------------------------------------------------------------------
 
-  void advance() {
+  // One simulation frame; returns its wall time in seconds.
+  double advance() {
     const auto t0 = Clock::now();
     sim->step();
-    sim_ms.add(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    sim_ms.add(1e3 * seconds);
     const FrameProfile& p = sim->last_profile();
     series[0].add(p.physics());
     series[1].add(p.geometry());
     series[2].add(p.tearing());
     series[3].add(p.carving);
     series[4].add(p.frame);
+    return seconds;
   }
 
   // --- fingers ------------------------------------------------------------------------------------------
@@ -527,7 +537,8 @@ struct App {
     ImGui::Begin("papertear");
     const Sheet& s = sim->sheet();
     ImGui::Text("%s", scenario.name.c_str());
-    ImGui::Text("frame %d   t = %.2f s   %.1f FPS", sim->frame(), sim->time(), ImGui::GetIO().Framerate);
+    ImGui::Text("frame %d   t = %.2f s   %.1f FPS   sim %.2fx real time", sim->frame(), sim->time(),
+                ImGui::GetIO().Framerate, sim_clock.speed());
     ImGui::Text("%d triangles, %d vertices, %zu tears, %d pieces", s.tris.size(), s.verts.size(), s.tears.size(),
                 s.topo.piece_count);
     ImGui::Text("step %.2f ms (avg %.2f), pick %.1f us (max %.1f)", sim_ms.count ? sim_ms.v[(sim_ms.head + 239) % 240] : 0.f,
@@ -831,7 +842,9 @@ struct App {
 
   int run() {
     const bool headless = opt.frames >= 0;
-    int frames_done = 0;
+    const bool lockstep = headless && !opt.realtime;
+    const double frame_dt = 1.0 / scenario.sim.fps;
+    int frames_done = 0, sim_frames = 0;
     double last = glfwGetTime();
     const auto wall0 = Clock::now();
     while (!glfwWindowShouldClose(window)) {
@@ -844,9 +857,12 @@ struct App {
       ImGui::NewFrame();
       if (!headless) handle_input(dt);
       else if (opt.demo_drag) demo_input(frames_done);
-      if (headless || playing || step_once) {
+      if (lockstep || step_once) {
         advance();
+        ++sim_frames;
         step_once = false;
+      } else if (playing) {
+        sim_frames += sim_clock.tick(dt, frame_dt, [&] { return advance(); });
       }
       panel();
       draw_finger_markers();
@@ -858,10 +874,11 @@ struct App {
       const double wall = std::chrono::duration<double>(Clock::now() - wall0).count();
       sim->flush();
       if (!opt.record.empty()) record_to(opt.record);
-      std::printf("papertear-viewer: %d frames in %.2f s: %.1f frames/s (sim step avg %.2f ms, render avg %.2f ms: "
-                  "sheet %.2f, ui %.2f), %d triangles, %zu tears\n",
-                  frames_done, wall, frames_done / std::max(1e-9, wall), sim_ms.avg(), render_ms.avg(), sheet_ms.avg(),
-                  ui_ms.avg(),
+      std::printf("papertear-viewer: %d frames in %.2f s: %.1f frames/s, %d simulation frames (%.2fx real time%s; "
+                  "sim step avg %.2f ms, render avg %.2f ms: sheet %.2f, ui %.2f), %d triangles, %zu tears\n",
+                  frames_done, wall, frames_done / std::max(1e-9, wall), sim_frames,
+                  sim_frames * frame_dt / std::max(1e-9, wall), lockstep ? ", lockstep" : "", sim_ms.avg(),
+                  render_ms.avg(), sheet_ms.avg(), ui_ms.avg(),
                   sim->sheet().tris.size(), sim->sheet().tears.size());
       if (!opt.screenshot.empty()) {
         // Render once more after flush so the last carved details show, then read the back buffer.
