@@ -37,6 +37,22 @@
 //    the line): mediator 29 → 21% (max 65 → 49%), hyperbola 23 → 21%, Fig. 14 tears 3.2 → 2.5; but a
 //    straight tear then adds a vertex per step (DESIGN §5.5 keeps it coarse), so it was not kept;
 //  - the principal direction of the fan's mean strain instead of eq. 4's bisector: 25% / 27%, 4.5 tears.
+// Fourth session (after the solver fix below; 16 meshes, figures from `papertear run` on each):
+//  - 10 of the 48 runs of Figs. 14-16 had refused implicit substeps (82-1 103 each: the sheet stood still
+//    for them). Fixed (block Cholesky, no sliver at an edge's end); the path figures hardly moved:
+//    mediator 29%, hyperbola 24%, Fig. 14 3.2 tears, zigzag 6.9 direction changes.
+//  - eq. 4 with each triangle's force shared between the clusters by where its edge opposite p lies (the
+//    corner force of a linear triangle is the traction across that edge, so the split is continuous in b):
+//    mediator 29 -> 25%, hyperbola 24 -> 20%, Fig. 14 tears 3.2 -> 2.8, Fig. 16 tears 8 -> 10. Not kept:
+//    DESIGN §5.3 defines the split by force direction, and a one-triangle fan then gets two parallel
+//    clusters (φ = 0, the largest Er).
+//  - Fig. 14 pulled in plane only (fingers moving apart along the axis, no lift): the tear runs 12-19 cm,
+//    mediator error 7-63% (mean 40%), finger forces 110-300 N. A trace of mesh 12 shows why: at every tip
+//    the two cluster pre-images are nearly opposite (φ ≈ π, as DESIGN §5.3 expects near equilibrium), so t is
+//    perpendicular to their common line, and that line is tilted by 5-100° from the direction the fingers
+//    pull; the step errors against the bisector of PA and PB were 5, 9, -11, -13, -13, -16, -32, -80, -98,
+//    -25 ... degrees. The tip's fan forces do not see the far field, and the path, neutrally stable,
+//    keeps every error: staying within 1% of a 5 cm path in 2-10 mm steps needs each step within ~0.2°.
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "systems/topology.hpp"
