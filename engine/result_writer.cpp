@@ -294,11 +294,13 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out) {
   result["pieces"] = std::move(pieces);
 
   // The work of the default implicit integrator (zeros with "solver": "projective"): symbolic analyses
-  // (after cuts or a change of the held set), numeric factorisations, spin-brake redos and rejected substeps.
+  // (after cuts or a change of the held set), numeric factorisations, spin-brake redos, solves that needed a
+  // diagonal shift, and rejected substeps.
   const ImplicitStats solver = sim.solver_stats();
   result["solver"] = ojson{{"analyses", solver.analyses},
                            {"factorizations", solver.factorizations},
                            {"brakes", solver.brakes},
+                           {"regularised", solver.regularised},
                            {"failures", solver.failures},
                            {"remeshes", sim.remesh_count()}};
 

@@ -402,8 +402,25 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
 
     s.stats.factorizations += 1;
     if (!factorize_block_ldlt(values, params.run, s.ldlt)) {
-      s.stats.failures += 1;
-      return false;
+      // The matrix is positive definite in exact arithmetic (lumped masses plus positive semidefinite
+      // stiffness), so a refused pivot is rounding: a sliver's stiffness 10⁸ times its neighbours' puts the
+      // condition near 1/ε. Rather than freeze the sheet for the substep, shift the diagonal by 10⁻¹⁴ of
+      // its largest entry (then 10⁻¹², 10⁻¹⁰) and factorise again: extra inertia for that substep only,
+      // comparable to a vertex's mass when a sliver makes the largest entry huge, negligible otherwise.
+      double largest = 0;
+      for (int32_t i = 0; i < s.free_count; ++i) largest = std::max(largest, values[s.block_of(i, i)].diagonal().maxCoeff());
+      bool factored = false;
+      for (const double relative : {1e-14, 1e-12, 1e-10}) {
+        for (int32_t i = 0; i < s.free_count; ++i)
+          values[s.block_of(i, i)].diagonal().array() += relative * largest;
+        s.stats.factorizations += 1;
+        if ((factored = factorize_block_ldlt(values, params.run, s.ldlt))) break;
+      }
+      if (!factored) {
+        s.stats.failures += 1;
+        return false;
+      }
+      s.stats.regularised += 1;
     }
     solve_block_ldlt(s.ldlt, s.rhs.data(), s.solution.data());
     if (!s.solution.allFinite()) {

@@ -70,6 +70,7 @@ struct ImplicitStats {
   int64_t factorizations = 0;  // numeric factorisations (one per substep)
   int64_t failures = 0;        // substeps rejected (the state was left unchanged)
   int64_t brakes = 0;          // substeps redone with the spin brake (energy check failed)
+  int64_t regularised = 0;     // solves that needed a diagonal shift to factorise (see implicit_substep)
 };
 const ImplicitStats& implicit_solver_stats(const ImplicitSolver& solver);
 // Heap bytes the solver keeps between substeps (structure, matrix values, factor, scratch), capacity based.

@@ -245,7 +245,7 @@ TEST_F(Cli, RunWritesEveryResultKey) {
   // Solver work: the default implicit integrator factorises at least once per substep (3 frames here, the
   // scenario's substeps each) and analyses the structure at least once.
   ASSERT_TRUE(j.contains("solver"));
-  for (const char* key : {"analyses", "factorizations", "brakes", "failures", "remeshes"})
+  for (const char* key : {"analyses", "factorizations", "brakes", "regularised", "failures", "remeshes"})
     EXPECT_TRUE(j["solver"][key].is_number_integer()) << "solver." << key;
   EXPECT_GE(j["solver"]["factorizations"].get<int>(), 3 * 10);
   EXPECT_GE(j["solver"]["analyses"].get<int>(), 1);
