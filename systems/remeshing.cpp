@@ -17,6 +17,7 @@
 #include "systems/topology.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -29,6 +30,47 @@ namespace {
 constexpr double kEdgeEnd = 0.01;
 
 double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+
+// A short list of vertex or triangle ids kept inline (fans and neighbourhoods of a cut hold a handful):
+// the walk asks for fans dozens of times per cut, and a heap allocation each time was a third of a cut's
+// cost at ~100 triangles. Spills to the heap past kInline ids (a hub vertex), same order either way.
+class IdList {
+ public:
+  static constexpr int32_t kInline = 32;
+  int32_t* begin() { return spilled() ? heap_.data() : inline_.data(); }
+  int32_t* end() { return begin() + n_; }
+  const int32_t* begin() const { return spilled() ? heap_.data() : inline_.data(); }
+  const int32_t* end() const { return begin() + n_; }
+  size_t size() const { return static_cast<size_t>(n_); }
+  bool empty() const { return n_ == 0; }
+  int32_t operator[](size_t i) const { return begin()[i]; }
+  void push_back(int32_t v) {
+    if (!spilled()) {
+      if (n_ < kInline) {
+        inline_[n_++] = v;
+        return;
+      }
+      heap_.assign(inline_.begin(), inline_.end());
+    }
+    heap_.push_back(v);
+    ++n_;
+  }
+  // Keeps the first k ids (k ≤ size()).
+  void truncate(const int32_t* new_end) {
+    n_ = static_cast<int32_t>(new_end - begin());
+    if (spilled()) heap_.resize(n_);
+  }
+  void sort_unique() {
+    std::sort(begin(), end());
+    truncate(std::unique(begin(), end()));
+  }
+
+ private:
+  bool spilled() const { return !heap_.empty(); }
+  std::array<int32_t, kInline> inline_{};
+  std::vector<int32_t> heap_;
+  int32_t n_ = 0;
+};
 
 bool contains(const Tri& t, int32_t v) { return t[0] == v || t[1] == v || t[2] == v; }
 
@@ -73,20 +115,19 @@ struct Cut {
   }
 
   // Triangles around v now, ascending ids (deterministic).
-  std::vector<int32_t> fan(int32_t v) const {
-    std::vector<int32_t> f;
+  IdList fan(int32_t v) const {
+    IdList f;
     if (v < n0)
       for (int32_t k = topo.vt_offset[v]; k < topo.vt_offset[v + 1]; ++k)
         if (contains(tri(topo.vt_tri[k]), v)) f.push_back(topo.vt_tri[k]);
     for (int32_t t : touched)
       if (contains(tri(t), v)) f.push_back(t);
-    std::sort(f.begin(), f.end());
-    f.erase(std::unique(f.begin(), f.end()), f.end());
+    f.sort_unique();
     return f;
   }
 
-  std::vector<int32_t> edge_tris(int32_t a, int32_t b) const {
-    std::vector<int32_t> e;
+  IdList edge_tris(int32_t a, int32_t b) const {
+    IdList e;
     for (int32_t t : fan(a))
       if (contains(tri(t), b)) e.push_back(t);
     return e;
@@ -96,7 +137,7 @@ struct Cut {
 
   // A vertex is on the boundary when one of its fan's edges has a single triangle.
   bool boundary_vertex(int32_t v) const {
-    std::vector<int32_t> nb;
+    IdList nb;
     for (int32_t t : fan(v)) {
       const Tri q = rotated_to(tri(t), v);
       nb.push_back(q[1]);
@@ -112,13 +153,12 @@ struct Cut {
     return false;
   }
 
-  std::vector<int32_t> neighbours(int32_t v) const {
-    std::vector<int32_t> nb;
+  IdList neighbours(int32_t v) const {
+    IdList nb;
     for (int32_t t : fan(v))
       for (int32_t c : tri(t))
         if (c != v) nb.push_back(c);
-    std::sort(nb.begin(), nb.end());
-    nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
+    nb.sort_unique();
     return nb;
   }
 
@@ -243,7 +283,7 @@ int32_t sector_triangle(const Cut& C, int32_t cur, const Vec2& d, int32_t exclud
 // Returns false if the fan does not have the expected shape.
 bool right_side(const Cut& C, const std::vector<int32_t>& path, size_t i, std::vector<int32_t>& out) {
   const int32_t v = path[i];
-  const std::vector<int32_t> fan = C.fan(v);
+  const IdList fan = C.fan(v);
   auto find = [&](auto pred) {
     for (int32_t t : fan) {
       const Tri q = rotated_to(C.tri(t), v);
@@ -281,7 +321,7 @@ bool right_side(const Cut& C, const std::vector<int32_t>& path, size_t i, std::v
 // Boundary neighbours of a boundary vertex from its (open) fan: next follows v along the boundary with the
 // interior on the left (edge v→next in a triangle without a twin), prev precedes it.
 std::pair<int32_t, int32_t> boundary_neighbours(const Cut& C, int32_t v) {
-  std::vector<int32_t> after, before;
+  IdList after, before;
   for (int32_t t : C.fan(v)) {
     const Tri q = rotated_to(C.tri(t), v);
     after.push_back(q[1]);
@@ -299,7 +339,7 @@ std::pair<int32_t, int32_t> boundary_neighbours(const Cut& C, int32_t v) {
 // condition holds (no edge gets three triangles, no bow-tie) and every remaining triangle stays
 // counter-clockwise; `quality` is the smallest angle of the changed triangles.
 bool collapse_ok(const Cut& C, int32_t v, int32_t q, double& quality) {
-  const std::vector<int32_t> fan = C.fan(v);
+  const IdList fan = C.fan(v);
   int32_t removed = -1, apex = -1;
   quality = std::numbers::pi;
   for (int32_t t : fan) {
@@ -323,9 +363,15 @@ bool collapse_ok(const Cut& C, int32_t v, int32_t q, double& quality) {
   // It may be v's only one: a sliver (a, v, b) along a straight tear simply disappears, the other lip's
   // re-based triangles cover its area.
   if (C.fan(apex).size() < 2 || (C.fan(q).size() < 2 && fan.size() < 2)) return false;
-  std::vector<int32_t> nv = C.neighbours(v), nq = C.neighbours(q), common;
-  std::set_intersection(nv.begin(), nv.end(), nq.begin(), nq.end(), std::back_inserter(common));
-  return common.size() == 1 && common[0] == apex;
+  const IdList nv = C.neighbours(v), nq = C.neighbours(q);
+  std::array<int32_t, 2> common{};
+  int32_t shared = 0;
+  for (const int32_t* a = nv.begin(), *b = nq.begin(); a != nv.end() && b != nq.end() && shared < 2;) {
+    if (*a < *b) ++a;
+    else if (*b < *a) ++b;
+    else common[shared++] = *a++, ++b;
+  }
+  return shared == 1 && common[0] == apex;
 }
 
 void apply_collapse(Cut& C, int32_t v, int32_t q) {
