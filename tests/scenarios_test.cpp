@@ -53,6 +53,11 @@
 //    pull; the step errors against the bisector of PA and PB were 5, 9, -11, -13, -13, -16, -32, -80, -98,
 //    -25 ... degrees. The tip's fan forces do not see the far field, and the path, neutrally stable,
 //    keeps every error: staying within 1% of a 5 cm path in 2-10 mm steps needs each step within ~0.2°.
+//  - Fig. 14 as it is (fingers lifted apart, a twist), traced on mesh 7: φ is 160-177° at the tips, not the
+//    ~90° of O'Keefe's picture (pre-images pointing at the fingers, up-left and up-right of the tip): the
+//    nodal forces at a tip are the crack's opening forces, perpendicular to the tear, whatever pulls the
+//    flaps. t then continues the tear's own direction, and from frame 15 to 34 it pointed back into the
+//    lips (refused by the turn check: the tip waited while the load grew) before a step 68° off.
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "systems/topology.hpp"
