@@ -19,7 +19,7 @@ tbb_tsan_dir=${TBB_TSAN_BUILD:-build-tbb-tsan}
 # Threaded tests: scenarios (two pulls, 1 vs 2 threads), the CLI (run, batch, thread-independent hash),
 # the hostile motions (threads 2), the viewer replay (engine driven by recorded sessions) and the block LDLT
 # (subtree tasks and supernode row chunks run on real threads in reverse order).
-tsan_filter=${TSAN_FILTER:-'^(Scenarios|Cli|Hostile|BlockLdlt)\.|viewer_replay'}
+tsan_filter=${TSAN_FILTER:-'^(Scenarios|Cli|Hostile|BlockLdlt)\.|viewer_replay|viewer_clock'}
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 
@@ -111,7 +111,7 @@ run_tsan() {
   # Only what the threaded tests need (the unit tests of single systems are serial).
   local targets=(scenarios_test cli_test hostile_test block_ldlt_test)
   local t
-  for t in papertear_cli viewer_replay_test; do
+  for t in papertear_cli viewer_replay_test viewer_clock_test; do
     cmake --build "$tsan_dir" --target help | grep -q "^$t:" && targets+=("$t")
   done
   cmake --build "$tsan_dir" -j "$jobs" --target "${targets[@]}"

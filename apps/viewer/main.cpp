@@ -7,6 +7,9 @@
 // Keys: Space play/pause, N step, R reset, G select every finger on the sheet (a hand), Q/E rotate the
 // selected fingers about their centroid around the view axis, Esc clear the selection, W wireframe,
 // Ctrl+S record the session to a scenario file, F frame the sheet.
+// The simulation follows the wall clock (SimulationClock) and each frame's step runs on a worker thread
+// (BackgroundStepper) while the frame is drawn: the frame reads the sheet (input, panel, vertex data,
+// pattern inset), starts the step, draws; the next frame waits for the step before reading again.
 #define GL_GLEXT_PROTOTYPES 1
 #include <GL/gl.h>
 #include <GL/glext.h>
@@ -69,7 +72,10 @@ struct Options {
   std::string scenario;
   int frames = -1;
   std::string screenshot;
-  int threads = 2;
+  // Simulation threads. One: the simulation steps on one core while the frame is drawn on the other
+  // (llvmpipe rasterises on the CPU). Measured at ~1 070 triangles with --realtime: 44-56 frames/s with
+  // one, 34-38 with two (the step's two threads and llvmpipe's then fight over both cores).
+  int threads = 1;
   int width = 1280, height = 800;
   int samples = 0;  // MSAA samples (llvmpipe: 4× costs several times the fill time)
   bool demo_drag = false;  // headless: click two points of the sheet and pull them apart with the mouse code
@@ -201,6 +207,8 @@ struct App {
   std::array<Series, 5> series;  // physics, geometry, tearing, carving, frame
   Series sim_ms, render_ms, sheet_ms, ui_ms;
   viewer::SimulationClock sim_clock;
+  viewer::BackgroundStepper stepper;  // steps the simulation while a frame is drawn
+  bool lockstep = false;              // headless without --realtime (set by run)
   // The ImGui windows (panel, tooltips) drawn into a layer at most every kPanelPeriod s, or every frame
   // while the user works in them; composited over the scene every frame (see draw_ui).
   Layer ui_layer;  // the windows over transparent black (premultiplied)
@@ -508,7 +516,9 @@ struct App {
   }
 
   // The 2D pattern inset: bottom right, a third of the window's height (GL, see Renderer::draw_pattern).
-  void draw_pattern_inset(int fw, int fh) {
+  // Reads the simulation (the inset's layer is redrawn when the pattern changed); show_pattern_inset
+  // copies the layer to the window.
+  void prepare_pattern_inset(int fw, int fh) {
     inset_rect[2] = inset_rect[3] = 0;
     if (!show_pattern) return;
     Vec2 lo = Vec2::Constant(1e300), hi = Vec2::Constant(-1e300);
@@ -523,12 +533,16 @@ struct App {
       h = static_cast<int>(w / aspect);
     }
     const std::vector<int> sel(selected.begin(), selected.end());
-    renderer.draw_pattern(*sim, fw - w - 10, 10, w, h, sel);
+    renderer.prepare_pattern(*sim, w, h, sel);
     inset_rect[0] = fw - w - 10;
     inset_rect[1] = 10;
     inset_rect[2] = w;
     inset_rect[3] = h;
     glViewport(0, 0, fw, fh);
+  }
+
+  void show_pattern_inset() {
+    if (inset_rect[2] > 0) renderer.show_pattern(inset_rect[0], inset_rect[1], inset_rect[2], inset_rect[3]);
   }
 
   void panel() {
@@ -537,8 +551,9 @@ struct App {
     ImGui::Begin("papertear");
     const Sheet& s = sim->sheet();
     ImGui::Text("%s", scenario.name.c_str());
-    ImGui::Text("frame %d   t = %.2f s   %.1f FPS   sim %.2fx real time", sim->frame(), sim->time(),
-                ImGui::GetIO().Framerate, sim_clock.speed());
+    ImGui::Text("frame %d   t = %.2f s   %.1f FPS", sim->frame(), sim->time(), ImGui::GetIO().Framerate);
+    if (lockstep) ImGui::Text("lockstep: one simulation frame per drawn frame");
+    else ImGui::Text("simulation at %.2fx real time", sim_clock.speed());
     ImGui::Text("%d triangles, %d vertices, %zu tears, %d pieces", s.tris.size(), s.verts.size(), s.tears.size(),
                 s.topo.piece_count);
     ImGui::Text("step %.2f ms (avg %.2f), pick %.1f us (max %.1f)", sim_ms.count ? sim_ms.v[(sim_ms.head + 239) % 240] : 0.f,
@@ -629,21 +644,27 @@ struct App {
 
   // --- frame --------------------------------------------------------------------------------------------
 
-  void render_frame() {
+  // Draws a frame. With `start_step`, a simulation step starts on the stepper once everything the frame
+  // reads from the simulation is read (vertex data and pattern inset here; the panel and the markers were
+  // built before) and runs while the frame is drawn; the next frame waits for it before reading again.
+  void render_frame(bool start_step = false) {
     int fw, fh;
     glfwGetFramebufferSize(window, &fw, &fh);
     int ww, wh;
     glfwGetWindowSize(window, &ww, &wh);
     camera.width = std::max(1, ww);
     camera.height = std::max(1, wh);
+    const auto t0 = Clock::now();
+    renderer.prepare(*sim, wireframe);
+    prepare_pattern_inset(fw, fh);
+    if (start_step) stepper.start([this] { advance(); });
     glViewport(0, 0, fw, fh);
     glClearColor(kBackground[0], kBackground[1], kBackground[2], kBackground[3]);
     // Stencil with depth: llvmpipe clears a packed depth-stencil buffer with plain stores only when both
     // are cleared (depth alone keeps the stencil bits: a read-modify-write of every pixel, ~1 ms here).
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT);
-    const auto t0 = Clock::now();
-    renderer.draw(*sim, camera, wireframe);
-    draw_pattern_inset(fw, fh);
+    renderer.draw_prepared(camera);
+    show_pattern_inset();
     glFinish();
     const auto t1 = Clock::now();
     ImGui::Render();
@@ -842,7 +863,7 @@ struct App {
 
   int run() {
     const bool headless = opt.frames >= 0;
-    const bool lockstep = headless && !opt.realtime;
+    lockstep = headless && !opt.realtime;
     const double frame_dt = 1.0 / scenario.sim.fps;
     int frames_done = 0, sim_frames = 0;
     double last = glfwGetTime();
@@ -852,24 +873,28 @@ struct App {
       const double now = glfwGetTime();
       const double dt = std::min(0.1, now - last);
       last = now;
+      stepper.wait();  // the step started by the last frame: from here on the simulation is this thread's
       ImGui_ImplOpenGL3_NewFrame();
       ImGui_ImplGlfw_NewFrame();
       ImGui::NewFrame();
       if (!headless) handle_input(dt);
       else if (opt.demo_drag) demo_input(frames_done);
+      int steps = 0;
       if (lockstep || step_once) {
-        advance();
-        ++sim_frames;
+        steps = 1;
         step_once = false;
       } else if (playing) {
-        sim_frames += sim_clock.tick(dt, frame_dt, [&] { return advance(); });
+        steps = sim_clock.due(dt, frame_dt);
       }
+      for (int k = 1; k < steps; ++k) advance();  // catching up: all but the last before drawing
+      sim_frames += steps;
       panel();
       draw_finger_markers();
-      render_frame();
+      render_frame(steps > 0);
       if (headless && ++frames_done >= opt.frames) break;
       glfwSwapBuffers(window);
     }
+    stepper.wait();
     if (headless) {
       const double wall = std::chrono::duration<double>(Clock::now() - wall0).count();
       sim->flush();

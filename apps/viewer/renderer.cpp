@@ -501,6 +501,11 @@ bool Renderer::touches_carved_tile(const Vec2& a, const Vec2& b, const Vec2& c) 
 }
 
 void Renderer::draw(const Simulation& sim, const Camera& camera, bool wireframe) {
+  prepare(sim, wireframe);
+  draw_prepared(camera);
+}
+
+void Renderer::prepare(const Simulation& sim, bool wireframe) {
   const Sheet& s = sim.sheet();
   const int32_t nv = s.verts.size(), nt = s.tris.size();
   upload_labels(sim);
@@ -571,6 +576,27 @@ void Renderer::draw(const Simulation& sim, const Camera& camera, bool wireframe)
         if (c[k] < c[(k + 1) % 3]) line(s.verts.x[c[k]], s.verts.x[c[(k + 1) % 3]], wire_col);
     }
 
+  glBindVertexArray(sheet_vao_);
+  glBindBuffer(GL_ARRAY_BUFFER, sheet_vbo_);
+  if (sheet_data_ != sheet_uploaded_) {  // paused or still: nothing to send
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(sheet_data_.size() * sizeof(float)), sheet_data_.data(),
+                 GL_STREAM_DRAW);
+    sheet_uploaded_.swap(sheet_data_);
+  }
+  if (!line_data_.empty()) {
+    glBindVertexArray(line_vao_);
+    glBindBuffer(GL_ARRAY_BUFFER, line_vbo_);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(line_data_.size() * sizeof(float)), line_data_.data(),
+                 GL_STREAM_DRAW);
+  }
+  glBindVertexArray(0);
+  prepared_triangles_ = nt;
+  prepared_carved_ = n_carved;
+  prepared_line_vertices_ = static_cast<int32_t>(line_data_.size() / 6);
+}
+
+void Renderer::draw_prepared(const Camera& camera) {
+  const int32_t nt = prepared_triangles_, n_carved = prepared_carved_;
   float mvp[16];
   to_float(camera.projection() * camera.view(), mvp);
   const Vec3 eye = camera.eye();
@@ -598,12 +624,6 @@ void Renderer::draw(const Simulation& sim, const Camera& camera, bool wireframe)
   glActiveTexture(GL_TEXTURE1);
   glBindTexture(GL_TEXTURE_2D, label_tex_);
   glBindVertexArray(sheet_vao_);
-  glBindBuffer(GL_ARRAY_BUFFER, sheet_vbo_);
-  if (sheet_data_ != sheet_uploaded_) {  // paused or still: nothing to send
-    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(sheet_data_.size() * sizeof(float)), sheet_data_.data(),
-                 GL_STREAM_DRAW);
-    sheet_uploaded_.swap(sheet_data_);
-  }
   if (n_carved > 0) {
     use_sheet_program(carved_program_);
     glDrawArrays(GL_TRIANGLES, 0, n_carved * 3);
@@ -614,16 +634,13 @@ void Renderer::draw(const Simulation& sim, const Camera& camera, bool wireframe)
   }
   glDisable(GL_POLYGON_OFFSET_FILL);
 
-  if (!line_data_.empty()) {
+  if (prepared_line_vertices_ > 0) {
     glUseProgram(line_program_);
     glUniformMatrix4fv(glGetUniformLocation(line_program_, "u_mvp"), 1, GL_FALSE, mvp);
     glUniform1f(glGetUniformLocation(line_program_, "u_lift"), 2e-4f);
     glUniform1f(glGetUniformLocation(line_program_, "u_point_size"), 1.0f);
     glBindVertexArray(line_vao_);
-    glBindBuffer(GL_ARRAY_BUFFER, line_vbo_);
-    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(line_data_.size() * sizeof(float)), line_data_.data(),
-                 GL_STREAM_DRAW);
-    glDrawArrays(GL_LINES, 0, static_cast<GLsizei>(line_data_.size() / 6));
+    glDrawArrays(GL_LINES, 0, prepared_line_vertices_);
   }
   glBindVertexArray(0);
   glActiveTexture(GL_TEXTURE1);
@@ -634,6 +651,16 @@ void Renderer::draw(const Simulation& sim, const Camera& camera, bool wireframe)
 }
 
 void Renderer::draw_pattern(const Simulation& sim, int x, int y, int w, int h, const std::vector<int>& selected) {
+  prepare_pattern(sim, w, h, selected);
+  show_pattern(x, y, w, h);
+}
+
+void Renderer::show_pattern(int x, int y, int w, int h) const {
+  if (w < 8 || h < 8) return;
+  pattern_layer_.copy_to_window(0, 0, w, h, x, y);
+}
+
+void Renderer::prepare_pattern(const Simulation& sim, int w, int h, const std::vector<int>& selected) {
   if (w < 8 || h < 8) return;
   const Sheet& s = sim.sheet();
   const Scenario& sc = sim.scenario();
@@ -742,7 +769,6 @@ void Renderer::draw_pattern(const Simulation& sim, int x, int y, int w, int h, c
     pattern_layer_.end();
     pattern_drawn_.swap(fill_data_);
   }
-  pattern_layer_.copy_to_window(0, 0, w, h, x, y);
 }
 
 }  // namespace pt::viewer

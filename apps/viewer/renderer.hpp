@@ -83,14 +83,22 @@ class Renderer {
   bool init();
   // New sheet (after reset): paper texture from the fibre field, empty label texture.
   void load_sheet(const Simulation& sim);
-  // Draw the current state.
+  // Draw the current state: prepare + draw_prepared.
   void draw(const Simulation& sim, const Camera& camera, bool wireframe);
+  // Everything that reads the simulation: vertex data built and uploaded, carved labels uploaded. After it
+  // the simulation may step (on another thread) while draw_prepared draws what was uploaded.
+  void prepare(const Simulation& sim, bool wireframe);
+  void draw_prepared(const Camera& camera);
   // The 2D pattern inset in the framebuffer rectangle (x, y from the bottom left, w × h pixels): the
   // mesh with regions coloured by kind (flat: paper, curved +: blue, curved −: orange), candidates
   // (amber), tears (detailed path black, coarse tips violet), fingers (red; selected ones yellow).
   // Drawn into a layer only when any of that changed (remeshing, tearing, fingers, selection, size),
   // copied otherwise.
   void draw_pattern(const Simulation& sim, int x, int y, int w, int h, const std::vector<int>& selected);
+  // draw_pattern in two parts, as prepare / draw_prepared: the layer (re)drawn from the simulation, then
+  // copied to the window.
+  void prepare_pattern(const Simulation& sim, int w, int h, const std::vector<int>& selected);
+  void show_pattern(int x, int y, int w, int h) const;
 
   int32_t label_tiles_uploaded() const { return tiles_uploaded_; }
   // How many times the pattern inset was drawn (not copied from its layer).
@@ -114,6 +122,7 @@ class Renderer {
   int tiles_x_ = 0, tiles_y_ = 0;
   std::vector<int32_t> order_;          // triangles in drawing order: carved ones first
   std::vector<float> sheet_data_, sheet_uploaded_, line_data_, fill_data_;
+  int32_t prepared_triangles_ = 0, prepared_carved_ = 0, prepared_line_vertices_ = 0;  // what prepare uploaded
   // Pattern inset: its own buffer and layer, and what was drawn into it last.
   unsigned pattern_vao_ = 0, pattern_vbo_ = 0;
   Layer pattern_layer_;
