@@ -205,7 +205,7 @@ struct App {
   bool playing = true, step_once = false, wireframe = false, show_pattern = true;
   int finger_counter = 0;
   std::array<Series, 5> series;  // physics, geometry, tearing, carving, frame
-  Series sim_ms, render_ms, sheet_ms, ui_ms;
+  Series sim_ms, render_ms, sheet_ms, ui_ms, prepare_ms;
   viewer::SimulationClock sim_clock;
   viewer::BackgroundStepper stepper;  // steps the simulation while a frame is drawn
   bool lockstep = false;              // headless without --realtime (set by run)
@@ -657,6 +657,7 @@ struct App {
     const auto t0 = Clock::now();
     renderer.prepare(*sim, wireframe);
     prepare_pattern_inset(fw, fh);
+    prepare_ms.add(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     if (start_step) stepper.start([this] { advance(); });
     glViewport(0, 0, fw, fh);
     glClearColor(kBackground[0], kBackground[1], kBackground[2], kBackground[3]);
@@ -900,10 +901,11 @@ struct App {
       sim->flush();
       if (!opt.record.empty()) record_to(opt.record);
       std::printf("papertear-viewer: %d frames in %.2f s: %.1f frames/s, %d simulation frames (%.2fx real time%s; "
-                  "sim step avg %.2f ms, render avg %.2f ms: sheet %.2f, ui %.2f), %d triangles, %zu tears\n",
+                  "sim step avg %.2f ms, render avg %.2f ms: sheet %.2f (reading the simulation %.2f), ui %.2f), %d "
+                  "triangles, %zu tears\n",
                   frames_done, wall, frames_done / std::max(1e-9, wall), sim_frames,
                   sim_frames * frame_dt / std::max(1e-9, wall), lockstep ? ", lockstep" : "", sim_ms.avg(),
-                  render_ms.avg(), sheet_ms.avg(), ui_ms.avg(),
+                  render_ms.avg(), sheet_ms.avg(), prepare_ms.avg(), ui_ms.avg(),
                   sim->sheet().tris.size(), sim->sheet().tears.size());
       if (!opt.screenshot.empty()) {
         // Render once more after flush so the last carved details show, then read the back buffer.
