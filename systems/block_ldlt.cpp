@@ -256,8 +256,8 @@ void split_into_subtrees(const std::vector<int32_t>& parent, const std::vector<d
 // Why block Cholesky and not LDLᵀ with D⁻¹: a vertex of tiny mass tied stiffly to its neighbours (a sliver
 // a cut left) has a pivot with condition ~10⁷, and the update Y_iᵀ D_i⁻¹ Y_i through an explicit inverse
 // then loses cond(D_i)·ε of its O(1) size — enough to make a later Schur complement of size 10⁻⁷ negative
-// (measured: Fig. 16 on mesh 3 refused 1 091 of 1 500 substeps although the matrix's smallest eigenvalue
-// was 8·10⁻⁸). X_i = C_i⁻¹ Y_i and the Gram update X_iᵀ X_i lose only about ε·‖X_i‖².
+// (measured: Fig. 16 on mesh 3 refused 1 103 of its 1 500 substeps although the matrix's smallest
+// eigenvalue was 8·10⁻⁸). X_i = C_i⁻¹ Y_i and the Gram update X_iᵀ X_i lose only about ε·‖X_i‖².
 bool factor_column(const std::vector<Mat3>& values, int32_t k, std::vector<Mat3>& y, ColumnFactor& s) {
   for (int32_t q = s.column_start[k]; q < s.column_start[k + 1]; ++q) y[s.column_row[q]] = values[s.column_key[q]];
   Mat3 d = values[s.diagonal_key[k]];

@@ -408,7 +408,8 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
       // its largest entry (then 10⁻¹², 10⁻¹⁰) and factorise again: extra inertia for that substep only,
       // comparable to a vertex's mass when a sliver makes the largest entry huge, negligible otherwise.
       double largest = 0;
-      for (int32_t i = 0; i < s.free_count; ++i) largest = std::max(largest, values[s.block_of(i, i)].diagonal().maxCoeff());
+      for (int32_t i = 0; i < s.free_count; ++i)
+        largest = std::max(largest, values[s.block_of(i, i)].diagonal().maxCoeff());
       bool factored = false;
       for (const double relative : {1e-14, 1e-12, 1e-10}) {
         for (int32_t i = 0; i < s.free_count; ++i)

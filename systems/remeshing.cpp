@@ -32,8 +32,9 @@ constexpr double kEdgeEnd = 0.01;
 double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 
 // A short list of vertex or triangle ids kept inline (fans and neighbourhoods of a cut hold a handful):
-// the walk asks for fans dozens of times per cut, and a heap allocation each time was a third of a cut's
-// cost at ~100 triangles. Spills to the heap past kInline ids (a hub vertex), same order either way.
+// the walk asks for fans dozens of times per cut, each a heap allocation as a std::vector (13% of a cut
+// at ~100 triangles, BM_RemeshOneCut 8.9 -> 7.7 us). Spills to the heap past kInline ids (a hub vertex),
+// same order either way.
 class IdList {
  public:
   static constexpr int32_t kInline = 32;
@@ -55,7 +56,7 @@ class IdList {
     heap_.push_back(v);
     ++n_;
   }
-  // Keeps the first k ids (k ≤ size()).
+  // Keeps the ids before new_end (a position in this list).
   void truncate(const int32_t* new_end) {
     n_ = static_cast<int32_t>(new_end - begin());
     if (spilled()) heap_.resize(n_);

@@ -515,7 +515,7 @@ struct App {
     }
   }
 
-  // The 2D pattern inset: bottom right, a third of the window's height (GL, see Renderer::draw_pattern).
+  // The 2D pattern inset: bottom right, a third of the window's height (GL, see Renderer::prepare_pattern).
   // Reads the simulation (the inset's layer is redrawn when the pattern changed); show_pattern_inset
   // copies the layer to the window.
   void prepare_pattern_inset(int fw, int fh) {

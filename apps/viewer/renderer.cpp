@@ -500,11 +500,6 @@ bool Renderer::touches_carved_tile(const Vec2& a, const Vec2& b, const Vec2& c) 
   return false;
 }
 
-void Renderer::draw(const Simulation& sim, const Camera& camera, bool wireframe) {
-  prepare(sim, wireframe);
-  draw_prepared(camera);
-}
-
 void Renderer::prepare(const Simulation& sim, bool wireframe) {
   const Sheet& s = sim.sheet();
   const int32_t nv = s.verts.size(), nt = s.tris.size();
@@ -648,11 +643,6 @@ void Renderer::draw_prepared(const Camera& camera) {
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, 0);
   glUseProgram(0);
-}
-
-void Renderer::draw_pattern(const Simulation& sim, int x, int y, int w, int h, const std::vector<int>& selected) {
-  prepare_pattern(sim, w, h, selected);
-  show_pattern(x, y, w, h);
 }
 
 void Renderer::show_pattern(int x, int y, int w, int h) const {

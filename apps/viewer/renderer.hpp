@@ -83,20 +83,16 @@ class Renderer {
   bool init();
   // New sheet (after reset): paper texture from the fibre field, empty label texture.
   void load_sheet(const Simulation& sim);
-  // Draw the current state: prepare + draw_prepared.
-  void draw(const Simulation& sim, const Camera& camera, bool wireframe);
-  // Everything that reads the simulation: vertex data built and uploaded, carved labels uploaded. After it
-  // the simulation may step (on another thread) while draw_prepared draws what was uploaded.
+  // Drawing the current state in two parts. prepare does everything that reads the simulation: vertex
+  // data built and uploaded, carved labels uploaded. After it the simulation may step (on another thread)
+  // while draw_prepared draws what was uploaded.
   void prepare(const Simulation& sim, bool wireframe);
   void draw_prepared(const Camera& camera);
-  // The 2D pattern inset in the framebuffer rectangle (x, y from the bottom left, w × h pixels): the
-  // mesh with regions coloured by kind (flat: paper, curved +: blue, curved −: orange), candidates
-  // (amber), tears (detailed path black, coarse tips violet), fingers (red; selected ones yellow).
-  // Drawn into a layer only when any of that changed (remeshing, tearing, fingers, selection, size),
-  // copied otherwise.
-  void draw_pattern(const Simulation& sim, int x, int y, int w, int h, const std::vector<int>& selected);
-  // draw_pattern in two parts, as prepare / draw_prepared: the layer (re)drawn from the simulation, then
-  // copied to the window.
+  // The 2D pattern inset, w × h pixels: the mesh with regions coloured by kind (flat: paper, curved +:
+  // blue, curved −: orange), candidates (amber), tears (detailed path black, coarse tips violet), fingers
+  // (red; selected ones yellow). prepare_pattern reads the simulation and draws into a layer only when
+  // any of that changed (remeshing, tearing, fingers, selection, size); show_pattern copies the layer to
+  // the framebuffer rectangle at (x, y) from the bottom left.
   void prepare_pattern(const Simulation& sim, int w, int h, const std::vector<int>& selected);
   void show_pattern(int x, int y, int w, int h) const;
 
