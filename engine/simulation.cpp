@@ -323,6 +323,10 @@ struct Simulation::Impl {
       PropagationDecision decision;
       {
         ScopedTimer timer(profile.clustering);
+        // Er ≤ Σ‖f_k‖ / e: a candidate that cannot reach Griffith's threshold is not clustered (its decision
+        // would be "no" anyway; NaN forces are skipped too, as the decision would refuse them).
+        if (!(fan_force_sum(sheet.tris, sheet.topo, c.vertex) / propagation_params.thickness >= c.fracture_energy))
+          continue;
         if (!cluster_tip_forces(sheet.verts, sheet.tris, sheet.topo, c.vertex, cluster_params, clusters)) continue;
       }
       {

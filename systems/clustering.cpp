@@ -96,6 +96,17 @@ Eigen::Matrix<double, 2, 3> deformation_pseudo_inverse(const Eigen::Matrix<doubl
   return g.inverse() * F.transpose();
 }
 
+double fan_force_sum(const Triangles& tris, const Topology& topo, int32_t p) {
+  if (p < 0 || p + 1 >= static_cast<int32_t>(topo.vt_offset.size())) return 0.0;
+  double sum = 0;
+  for (int32_t q = topo.vt_offset[p]; q < topo.vt_offset[p + 1]; ++q) {
+    const int32_t t = topo.vt_tri[q];
+    const int32_t i = corner_of(tris.tri[t], p);
+    if (i >= 0) sum += tris.corner_force[t][i].norm();
+  }
+  return sum;
+}
+
 bool cluster_tip_forces(const Vertices& verts, const Triangles& tris, const Topology& topo, int32_t p,
                         const ClusterParams& params, ForceClusters& out) {
   out = ForceClusters{};

@@ -31,6 +31,11 @@ struct ForceClusters {
 bool cluster_tip_forces(const Vertices& verts, const Triangles& tris, const Topology& topo, int32_t p,
                         const ClusterParams& params, ForceClusters& out);
 
+// Σ_k ‖f_k‖ over the fan of p: an upper bound of ‖F_left‖ + ‖F_right‖ whatever the split, so
+// Er ≤ fan_force_sum / e (eq. 6, cos(φ/2) ≤ 1). A candidate below Griffith's threshold with this bound
+// cannot propagate, and the frame skips its clustering. NaN if a force is not finite.
+double fan_force_sum(const Triangles& tris, const Topology& topo, int32_t p);
+
 // F⁺ = (FᵀF)⁻¹Fᵀ (2x3) of a 3x2 deformation gradient; zero for a degenerate F.
 Eigen::Matrix<double, 2, 3> deformation_pseudo_inverse(const Eigen::Matrix<double, 3, 2>& F);
 
