@@ -552,7 +552,7 @@ struct App {
     const Sheet& s = sim->sheet();
     ImGui::Text("%s", scenario.name.c_str());
     ImGui::Text("frame %d   t = %.2f s   %.1f FPS", sim->frame(), sim->time(), ImGui::GetIO().Framerate);
-    if (lockstep) ImGui::Text("lockstep: one simulation frame per drawn frame");
+    if (lockstep) ImGui::Text("lockstep: one step per frame");
     else ImGui::Text("simulation at %.2fx real time", sim_clock.speed());
     ImGui::Text("%d triangles, %d vertices, %zu tears, %d pieces", s.tris.size(), s.verts.size(), s.tears.size(),
                 s.topo.piece_count);
