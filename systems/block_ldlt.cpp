@@ -741,7 +741,6 @@ void solve_block_ldlt(const BlockLdlt& f, const double* b, double* x) {
   for (int32_t k = 0; k < f.n; ++k) Eigen::Map<Vec3>(x + 3 * f.order[k]) = z.segment<3>(3 * k);
 }
 
-
 size_t block_ldlt_bytes(const BlockLdlt& l) {
   const ColumnFactor& c = l.columns;
   const SupernodalFactor& sn = l.supernodes;

@@ -91,7 +91,6 @@ Mat2 tensile_part(const Mat2& stress) {
 void ImplicitSolverDeleter::operator()(ImplicitSolver* s) const { delete s; }
 const ImplicitStats& implicit_solver_stats(const ImplicitSolver& solver) { return solver.stats; }
 
-
 size_t implicit_solver_bytes(const ImplicitSolver& s) {
   return sizeof(ImplicitSolver) + capacity_bytes(s.held) + capacity_bytes(s.free_index) + capacity_bytes(s.block_key) +
          capacity_bytes(s.block_column) + capacity_bytes(s.block_values) + capacity_bytes(s.tri_block) +

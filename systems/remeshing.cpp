@@ -506,8 +506,7 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
           break;
         }
         const bool boundary = C.boundary_edge(u, w);
-        const double s = std::clamp(best_s, 1e-6, 1.0 - 1e-6);
-        path.push_back(C.split_edge(u, w, s, tear_id));
+        path.push_back(C.split_edge(u, w, best_s, tear_id));  // best_s in [kEdgeEnd, 1 − kEdgeEnd]
         reached_boundary = boundary;
       } else {
         path.push_back(C.insert_in_triangle(t, next, tear_id));
@@ -524,7 +523,8 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
     int32_t u = -1;
     if (s < params.snap_fraction && snappable(a)) u = a;
     else if (s > 1.0 - params.snap_fraction && snappable(b)) u = b;
-    // A snap must bring the walk closer to next (it always ends; a sliver is better than turning back).
+    // A snap must bring the walk closer to next (so the walk always ends; without the snap the tear may stop
+    // at cur, below, rather than turn back).
     if (u >= 0 && !((next - C.r(u)).norm() < dn)) u = -1;
     const Vec2 point = u >= 0 ? C.r(u) : Vec2(A + s * (B - A));
     if (!((next - point).norm() < dn)) break;  // no progress (rounding): stop the tear at cur
@@ -540,7 +540,7 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
       }
     } else {
       const bool boundary = C.boundary_edge(a, b);
-      path.push_back(C.split_edge(a, b, std::clamp(s, 1e-6, 1.0 - 1e-6), tear_id));
+      path.push_back(C.split_edge(a, b, s, tear_id));  // s in [kEdgeEnd, 1 − kEdgeEnd]
       from_crossing = true;
       if (boundary) {
         reached_boundary = true;

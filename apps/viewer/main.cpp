@@ -208,7 +208,8 @@ struct App {
   Series sim_ms, render_ms, sheet_ms, ui_ms, prepare_ms;
   viewer::SimulationClock sim_clock;
   viewer::BackgroundStepper stepper;  // steps the simulation while a frame is drawn
-  bool lockstep = false;              // headless without --realtime (set by run)
+  // Headless without --realtime: one simulation frame per drawn frame.
+  bool lockstep() const { return opt.frames >= 0 && !opt.realtime; }
   // The ImGui windows (panel, tooltips) drawn into a layer at most every kPanelPeriod s, or every frame
   // while the user works in them; composited over the scene every frame (see draw_ui).
   Layer ui_layer;  // the windows over transparent black (premultiplied)
@@ -263,19 +264,16 @@ struct App {
 
   // --- simulation ---------------------------------------------------------------------------------------
 
-  // One simulation frame; returns its wall time in seconds.
-  double advance() {
+  void advance() {
     const auto t0 = Clock::now();
     sim->step();
-    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-    sim_ms.add(1e3 * seconds);
+    sim_ms.add(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     const FrameProfile& p = sim->last_profile();
     series[0].add(p.physics());
     series[1].add(p.geometry());
     series[2].add(p.tearing());
     series[3].add(p.carving);
     series[4].add(p.frame);
-    return seconds;
   }
 
   // --- fingers ------------------------------------------------------------------------------------------
@@ -552,7 +550,7 @@ struct App {
     const Sheet& s = sim->sheet();
     ImGui::Text("%s", scenario.name.c_str());
     ImGui::Text("frame %d   t = %.2f s   %.1f FPS", sim->frame(), sim->time(), ImGui::GetIO().Framerate);
-    if (lockstep) ImGui::Text("lockstep: one step per frame");
+    if (lockstep()) ImGui::Text("lockstep: one step per frame");
     else ImGui::Text("simulation at %.2fx real time", sim_clock.speed());
     ImGui::Text("%d triangles, %d vertices, %zu tears, %d pieces", s.tris.size(), s.verts.size(), s.tears.size(),
                 s.topo.piece_count);
@@ -864,7 +862,6 @@ struct App {
 
   int run() {
     const bool headless = opt.frames >= 0;
-    lockstep = headless && !opt.realtime;
     const double frame_dt = 1.0 / scenario.sim.fps;
     int frames_done = 0, sim_frames = 0;
     double last = glfwGetTime();
@@ -881,7 +878,7 @@ struct App {
       if (!headless) handle_input(dt);
       else if (opt.demo_drag) demo_input(frames_done);
       int steps = 0;
-      if (lockstep || step_once) {
+      if (lockstep() || step_once) {
         steps = 1;
         step_once = false;
       } else if (playing) {
@@ -904,7 +901,7 @@ struct App {
                   "sim step avg %.2f ms, render avg %.2f ms: sheet %.2f (reading the simulation %.2f), ui %.2f), %d "
                   "triangles, %zu tears\n",
                   frames_done, wall, frames_done / std::max(1e-9, wall), sim_frames,
-                  sim_frames * frame_dt / std::max(1e-9, wall), lockstep ? ", lockstep" : "", sim_ms.avg(),
+                  sim_frames * frame_dt / std::max(1e-9, wall), lockstep() ? ", lockstep" : "", sim_ms.avg(),
                   render_ms.avg(), sheet_ms.avg(), prepare_ms.avg(), ui_ms.avg(),
                   sim->sheet().tris.size(), sim->sheet().tears.size());
       if (!opt.screenshot.empty()) {
