@@ -7,9 +7,13 @@
 // Keys: Space play/pause, N step, R reset, G select every finger on the sheet (a hand), Q/E rotate the
 // selected fingers about their centroid around the view axis, Esc clear the selection, W wireframe,
 // Ctrl+S record the session to a scenario file, F frame the sheet.
-// The simulation follows the wall clock (SimulationClock) and each frame's step runs on a worker thread
-// (BackgroundStepper) while the frame is drawn: the frame reads the sheet (input, panel, vertex data,
-// pattern inset), starts the step, draws; the next frame waits for the step before reading again.
+// The simulation follows the wall clock (SimulationClock) and its steps run on a worker thread
+// (BackgroundStepper) while frames are drawn. A frame that finds no step running owns the simulation: it
+// copies what the panel, the markers and the input read (SheetView), applies the queued edits, uploads the
+// vertex data, starts the steps that are due and draws. A frame that finds a step still running draws the
+// last uploaded state with the current camera and panel, so frames are not held up by a step that takes
+// longer than a frame; finger moves made meanwhile are queued, and rare edits (a new finger, release,
+// reset, record) wait for the step (sync).
 #define GL_GLEXT_PROTOTYPES 1
 #include <GL/gl.h>
 #include <GL/glext.h>
@@ -26,6 +30,7 @@
 #include "apps/viewer/recorder.hpp"
 #include "apps/viewer/simulation_clock.hpp"
 #include "apps/viewer/renderer.hpp"
+#include "apps/viewer/sheet_view.hpp"
 #include "engine/picking.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
@@ -192,6 +197,12 @@ struct Drag {
   bool moved = false;
 };
 
+// One finished simulation step's timings, handed from the stepper to the frame that collects it.
+struct StepTiming {
+  float step_ms = 0;
+  std::array<float, 5> groups{};  // physics, geometry, tearing, carving, frame (FrameProfile, ms)
+};
+
 struct App {
   Options opt;
   GLFWwindow* window = nullptr;
@@ -207,7 +218,13 @@ struct App {
   std::array<Series, 5> series;  // physics, geometry, tearing, carving, frame
   Series sim_ms, render_ms, sheet_ms, ui_ms, prepare_ms;
   viewer::SimulationClock sim_clock;
-  viewer::BackgroundStepper stepper;  // steps the simulation while a frame is drawn
+  viewer::BackgroundStepper stepper;  // steps the simulation while frames are drawn
+  bool own = true;              // this frame owns the simulation (no step running)
+  double unclocked = 0;         // wall seconds since the clock last ran (it runs in frames that own)
+  SheetView view;               // the simulation as of the last frame that owned it
+  QueuedEdits edits;            // made since, written before the next step (the panel's live material too)
+  std::vector<StepTiming> finished_steps;  // written by the stepper's job, collected when it is done
+  int64_t frames_owning = 0;    // frames that read the simulation (the rest drew the last uploaded state)
   // Headless without --realtime: one simulation frame per drawn frame.
   bool lockstep() const { return opt.frames >= 0 && !opt.realtime; }
   // The ImGui windows (panel, tooltips) drawn into a layer at most every kPanelPeriod s, or every frame
@@ -234,6 +251,7 @@ struct App {
   }
 
   void reset() {
+    sync();
     scenario.material.thickness = thickness;
     scenario.material.speed = speed;
     scenario.material.max_step = max_step;
@@ -244,6 +262,11 @@ struct App {
     sim = std::make_unique<Simulation>(scenario, eo);
     renderer.load_sheet(*sim);
     picker.update(sim->sheet());
+    edits = QueuedEdits{};
+    edits.fracture_c = sim->sheet().material.fracture_c;
+    edits.tip_damage = sim->sheet().material.tip_damage;
+    finished_steps.clear();
+    capture_view();
     selected.clear();
     drag = Drag{};
     finger_counter = 0;
@@ -264,41 +287,51 @@ struct App {
 
   // --- simulation ---------------------------------------------------------------------------------------
 
-  void advance() {
-    const auto t0 = Clock::now();
-    sim->step();
-    sim_ms.add(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-    const FrameProfile& p = sim->last_profile();
-    series[0].add(p.physics());
-    series[1].add(p.geometry());
-    series[2].add(p.tearing());
-    series[3].add(p.carving);
-    series[4].add(p.frame);
+  // Runs on the stepper: `steps` simulation frames, their timings kept for collect_steps().
+  void advance(int steps) {
+    for (int k = 0; k < steps; ++k) {
+      const auto t0 = Clock::now();
+      sim->step();
+      StepTiming st;
+      st.step_ms = static_cast<float>(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      const FrameProfile& p = sim->last_profile();
+      st.groups = {float(p.physics()), float(p.geometry()), float(p.tearing()), float(p.carving), float(p.frame)};
+      finished_steps.push_back(st);
+    }
   }
+
+  // The steps' timings into the panel's series (only while no step runs: finished_steps is the job's).
+  void collect_steps() {
+    for (const StepTiming& st : finished_steps) {
+      sim_ms.add(st.step_ms);
+      for (int g = 0; g < 5; ++g) series[g].add(st.groups[g]);
+    }
+    finished_steps.clear();
+  }
+
+  // Waits for the running step, if any: from here on this frame owns the simulation.
+  void sync() {
+    stepper.wait();
+    if (!own) {
+      own = true;
+      collect_steps();
+    }
+  }
+
+  void capture_view() { capture_sheet_view(*sim, edits, view); }
 
   // --- fingers ------------------------------------------------------------------------------------------
 
-  // The position a finger is heading to: its last key (set by move_finger), else its target now.
-  Vec3 finger_goal(int i) const {
-    const Finger& f = sim->sheet().fingers[i];
-    return (!f.keys.empty() && f.hand < 0) ? f.keys.back().position : f.target;
-  }
-
-  Vec3 finger_position(int i) const {
-    const Finger& f = sim->sheet().fingers[i];
-    return f.vertex >= 0 ? sim->sheet().verts.x[f.vertex] : f.target;
-  }
-
-  bool finger_active(int i) const {
-    const Finger& f = sim->sheet().fingers[i];
-    return f.vertex >= 0 && !f.released;
-  }
+  // The position a finger is heading to: its last key (set by move_finger, or queued), else its target.
+  Vec3 finger_goal(int i) const { return view.fingers[i].goal; }
+  Vec3 finger_position(int i) const { return view.fingers[i].position; }
+  bool finger_active(int i) const { return view.fingers[i].active; }
 
   // The active finger drawn nearest to window pixel (x, y), within `radius` pixels, or −1.
   int finger_at(double x, double y, double radius = 14) const {
     int best = -1;
     double best_d = radius * radius;
-    for (int i = 0; i < static_cast<int>(sim->sheet().fingers.size()); ++i) {
+    for (int i = 0; i < static_cast<int>(view.fingers.size()); ++i) {
       if (!finger_active(i)) continue;
       double px, py;
       if (!camera.project(finger_position(i), px, py)) continue;
@@ -311,9 +344,11 @@ struct App {
     return best;
   }
 
+  // Queued: a frame drawn while a step runs must not touch the simulation (apply_queued_edits writes it).
   void move(int i, const Vec3& target) {
     if (!finger_active(i) || !target.allFinite()) return;
-    sim->move_finger(i, target);
+    queue_finger_move(i, target, edits);
+    view.fingers[i].goal = target;
   }
 
   std::optional<PickHit> pick_at(double x, double y) {
@@ -341,11 +376,14 @@ struct App {
     }
     int grab = f;
     if (grab < 0) {
+      sync();  // picks the sheet as it is now, and a new finger is an edit of the simulation
       if (auto hit = pick_at(x, y)) {
-        const std::string name = "F" + std::to_string(++finger_counter);
+        std::string name = std::to_string(++finger_counter);
+        name.insert(name.begin(), 'F');  // not "F" + ...: GCC 12 warns falsely (-Wrestrict) there
         grab = sim->attach_finger(name, hit->uv);
         if (grab < 0) say("no sheet under the cursor at " + name);
         else picker.update(sim->sheet());
+        capture_view();
       }
     }
     if (grab >= 0) {
@@ -409,9 +447,11 @@ struct App {
   void release_at(double x, double y) {
     const int f = finger_at(x, y);
     if (f >= 0) {
+      sync();
       sim->release_finger(f);
+      capture_view();
       selected.erase(f);
-      say("released " + sim->sheet().fingers[f].name);
+      say("released " + view.fingers[f].name);
     }
   }
 
@@ -430,6 +470,8 @@ struct App {
 
   void record() { record_to(record_path); }
   void record_to(const std::string& path) {
+    sync();
+    apply_queued_edits(edits, *sim);
     if (sim->sheet().fingers.empty()) {
       say("nothing to record: put a finger on the sheet first (a scenario needs one)");
       return;
@@ -484,11 +526,14 @@ struct App {
     if (ImGui::IsKeyPressed(GLFW_KEY_N)) step_once = true;
     if (ImGui::IsKeyPressed(GLFW_KEY_R, false)) reset();
     if (ImGui::IsKeyPressed(GLFW_KEY_W, false)) wireframe = !wireframe;
-    if (ImGui::IsKeyPressed(GLFW_KEY_F, false)) camera.frame_sheet(sim->sheet(), scenario.sim.gravity);
+    if (ImGui::IsKeyPressed(GLFW_KEY_F, false)) {
+      sync();
+      camera.frame_sheet(sim->sheet(), scenario.sim.gravity);
+    }
     if (ImGui::IsKeyPressed(GLFW_KEY_ESCAPE, false)) selected.clear();
     if (ImGui::IsKeyPressed(GLFW_KEY_G, false)) {
       selected.clear();
-      for (int i = 0; i < static_cast<int>(sim->sheet().fingers.size()); ++i)
+      for (int i = 0; i < static_cast<int>(view.fingers.size()); ++i)
         if (finger_active(i)) selected.insert(i);
     }
     if ((mods & GLFW_MOD_CONTROL) && ImGui::IsKeyPressed(GLFW_KEY_S, false)) record();
@@ -501,15 +546,14 @@ struct App {
 
   void draw_finger_markers() {
     ImDrawList* dl = ImGui::GetBackgroundDrawList();
-    const Sheet& s = sim->sheet();
-    for (int i = 0; i < static_cast<int>(s.fingers.size()); ++i) {
+    for (int i = 0; i < static_cast<int>(view.fingers.size()); ++i) {
       if (!finger_active(i)) continue;
       double px, py;
       if (!camera.project(finger_position(i), px, py)) continue;
       const bool sel = selected.count(i) > 0;
       dl->AddCircleFilled(ImVec2(float(px), float(py)), 7.f, sel ? IM_COL32(255, 200, 30, 255) : IM_COL32(220, 30, 30, 255));
       dl->AddCircle(ImVec2(float(px), float(py)), 7.f, IM_COL32(60, 0, 0, 255), 0, 1.5f);
-      dl->AddText(ImVec2(float(px) + 9, float(py) - 8), IM_COL32(120, 0, 0, 255), s.fingers[i].name.c_str());
+      dl->AddText(ImVec2(float(px) + 9, float(py) - 8), IM_COL32(120, 0, 0, 255), view.fingers[i].name.c_str());
     }
   }
 
@@ -547,13 +591,12 @@ struct App {
     ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_FirstUseEver);
     ImGui::SetNextWindowSize(ImVec2(340, 0), ImGuiCond_FirstUseEver);
     ImGui::Begin("papertear");
-    const Sheet& s = sim->sheet();
     ImGui::Text("%s", scenario.name.c_str());
-    ImGui::Text("frame %d   t = %.2f s   %.1f FPS", sim->frame(), sim->time(), ImGui::GetIO().Framerate);
+    ImGui::Text("frame %d   t = %.2f s   %.1f FPS", view.frame, view.time, ImGui::GetIO().Framerate);
     if (lockstep()) ImGui::Text("lockstep: one step per frame");
     else ImGui::Text("simulation at %.2fx real time", sim_clock.speed());
-    ImGui::Text("%d triangles, %d vertices, %zu tears, %d pieces", s.tris.size(), s.verts.size(), s.tears.size(),
-                s.topo.piece_count);
+    ImGui::Text("%d triangles, %d vertices, %zu tears, %d pieces", view.triangles, view.vertices, view.tears,
+                view.pieces);
     ImGui::Text("step %.2f ms (avg %.2f), pick %.1f us (max %.1f)", sim_ms.count ? sim_ms.v[(sim_ms.head + 239) % 240] : 0.f,
                 sim_ms.avg(), last_pick_us, max_pick_us);
     if (ImGui::Button(playing ? "Pause" : "Play")) playing = !playing;
@@ -567,12 +610,12 @@ struct App {
     ImGui::Checkbox("pattern", &show_pattern);
 
     if (ImGui::CollapsingHeader("Material and tearing", ImGuiTreeNodeFlags_DefaultOpen)) {
-      Material& m = sim->mutable_sheet().material;
       ImGui::TextDisabled("live:");
-      ImGui::DragScalar("fracture c (J/m2)", ImGuiDataType_Double, &m.fracture_c, 50.0f);
-      m.fracture_c = std::max(1.0, m.fracture_c);
+      edits.material_edited |= ImGui::DragScalar("fracture c (J/m2)", ImGuiDataType_Double, &edits.fracture_c, 50.0f);
+      edits.fracture_c = std::max(1.0, edits.fracture_c);
       const double zero = 0, one = 1;
-      ImGui::SliderScalar("tip damage D", ImGuiDataType_Double, &m.tip_damage, &zero, &one, "%.3f");
+      edits.material_edited |=
+          ImGui::SliderScalar("tip damage D", ImGuiDataType_Double, &edits.tip_damage, &zero, &one, "%.3f");
       ImGui::TextDisabled("applied on Reset:");
       bool changed = false;
       const double t_lo = 2e-5, t_hi = 1e-3, s_lo = 1e-9, s_hi = 1e-5, m_lo = 1e-4, m_hi = 0.05, sg_lo = 1e-5,
@@ -606,19 +649,21 @@ struct App {
     }
 
     if (ImGui::CollapsingHeader("Fingers", ImGuiTreeNodeFlags_DefaultOpen)) {
-      for (int i = 0; i < static_cast<int>(s.fingers.size()); ++i) {
-        const Finger& f = s.fingers[i];
+      for (int i = 0; i < static_cast<int>(view.fingers.size()); ++i) {
+        const FingerView& f = view.fingers[i];
         char label[160];
         std::snprintf(label, sizeof label, "%s  uv (%.3f, %.3f)  |F| %.2f N%s", f.name.c_str(), f.uv.x(), f.uv.y(),
-                      f.reaction.norm(), f.vertex < 0 ? (f.released ? "  released" : "  waiting") : "");
+                      f.force, f.active ? "" : (f.released ? "  released" : "  waiting"));
         if (ImGui::Selectable(label, selected.count(i) > 0) && finger_active(i)) {
           if (!ImGui::GetIO().KeyCtrl) selected.clear();
           selected.insert(i);
         }
       }
       if (ImGui::Button("Release selected")) {
+        sync();
         for (int i : selected)
           if (finger_active(i)) sim->release_finger(i);
+        capture_view();
         selected.clear();
       }
     }
@@ -642,10 +687,10 @@ struct App {
 
   // --- frame --------------------------------------------------------------------------------------------
 
-  // Draws a frame. With `start_step`, a simulation step starts on the stepper once everything the frame
-  // reads from the simulation is read (vertex data and pattern inset here; the panel and the markers were
-  // built before) and runs while the frame is drawn; the next frame waits for it before reading again.
-  void render_frame(bool start_step = false) {
+  // Draws a frame. A frame that owns the simulation writes the queued edits, uploads the vertex data and
+  // the pattern inset and then starts `steps` simulation frames on the stepper, which run while this frame
+  // and the next ones are drawn; a frame that does not own it draws what was uploaded last.
+  void render_frame(int steps = 0) {
     int fw, fh;
     glfwGetFramebufferSize(window, &fw, &fh);
     int ww, wh;
@@ -653,10 +698,17 @@ struct App {
     camera.width = std::max(1, ww);
     camera.height = std::max(1, wh);
     const auto t0 = Clock::now();
-    renderer.prepare(*sim, wireframe);
-    prepare_pattern_inset(fw, fh);
-    prepare_ms.add(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-    if (start_step) stepper.start([this] { advance(); });
+    if (own) {
+      ++frames_owning;
+      apply_queued_edits(edits, *sim);
+      renderer.prepare(*sim, wireframe);
+      prepare_pattern_inset(fw, fh);
+      prepare_ms.add(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      if (steps > 0) {
+        own = false;
+        stepper.start([this, steps] { advance(steps); });
+      }
+    }
     glViewport(0, 0, fw, fh);
     glClearColor(kBackground[0], kBackground[1], kBackground[2], kBackground[3]);
     // Stencil with depth: llvmpipe clears a packed depth-stencil buffer with plain stores only when both
@@ -775,7 +827,7 @@ struct App {
         if (!clear_of(v.pos.x * sx - 2, fh - v.pos.y * sy - 2, v.pos.x * sx + 2, fh - v.pos.y * sy + 2)) return false;
     const Eigen::Matrix4d pv = camera.projection() * camera.view();
     double lx = 1e300, ly = 1e300, hx = -1e300, hy = -1e300;
-    for (const Vec3& p : sim->sheet().verts.x) {
+    for (const Vec3& p : view.positions) {
       const Eigen::Vector4d c = pv * Eigen::Vector4d(p.x(), p.y(), p.z(), 1.0);
       if (!(c.w() > 0)) return false;  // behind the eye: its projection is unbounded
       const double gx = (c.x() / c.w() * 0.5 + 0.5) * fw, gy = (c.y() / c.w() * 0.5 + 0.5) * fh;
@@ -817,6 +869,7 @@ struct App {
   }
   void demo_input(int f) {
     auto screen_of = [&](const Vec2& uv, double& px, double& py) {
+      sync();  // reads the vertices; the drag below goes through the queue like a user's
       const Sheet& s = sim->sheet();
       int best = 0;
       for (int v = 1; v < s.verts.size(); ++v)
@@ -833,7 +886,7 @@ struct App {
       press_left(px, py, 0);
       drag = Drag{};
       selected.clear();
-      for (int i = 0; i < static_cast<int>(sim->sheet().fingers.size()); ++i)
+      for (int i = 0; i < static_cast<int>(view.fingers.size()); ++i)
         if (finger_active(i)) selected.insert(i);  // G
     }
     const int end = std::max(8, opt.frames * 3 / 4);
@@ -871,37 +924,46 @@ struct App {
       const double now = glfwGetTime();
       const double dt = std::min(0.1, now - last);
       last = now;
-      stepper.wait();  // the step started by the last frame: from here on the simulation is this thread's
+      unclocked += dt;
+      // Lockstep waits for the step (one per drawn frame); otherwise a frame owns the simulation only when
+      // the last step has finished, and draws the last uploaded state when it has not.
+      if (lockstep()) sync();
+      else if (!own && !stepper.busy()) sync();
+      if (own) capture_view();
       ImGui_ImplOpenGL3_NewFrame();
       ImGui_ImplGlfw_NewFrame();
       ImGui::NewFrame();
       if (!headless) handle_input(dt);
       else if (opt.demo_drag) demo_input(frames_done);
       int steps = 0;
-      if (lockstep() || step_once) {
-        steps = 1;
-        step_once = false;
-      } else if (playing) {
-        steps = sim_clock.due(dt, frame_dt);
+      if (own) {
+        if (lockstep() || step_once) {
+          steps = 1;
+          step_once = false;
+        } else if (playing) {
+          steps = sim_clock.due(unclocked, frame_dt);
+        }
+        unclocked = 0;
       }
-      for (int k = 1; k < steps; ++k) advance();  // catching up: all but the last before drawing
       sim_frames += steps;
       panel();
       draw_finger_markers();
-      render_frame(steps > 0);
+      render_frame(steps);
       if (headless && ++frames_done >= opt.frames) break;
       glfwSwapBuffers(window);
     }
-    stepper.wait();
+    sync();
     if (headless) {
       const double wall = std::chrono::duration<double>(Clock::now() - wall0).count();
       sim->flush();
       if (!opt.record.empty()) record_to(opt.record);
       std::printf("papertear-viewer: %d frames in %.2f s: %.1f frames/s, %d simulation frames (%.2fx real time%s; "
+                  "%lld frames read the simulation, the others drew the last state while a step ran; "
                   "sim step avg %.2f ms, render avg %.2f ms: sheet %.2f (reading the simulation %.2f), ui %.2f), %d "
                   "triangles, %zu tears\n",
                   frames_done, wall, frames_done / std::max(1e-9, wall), sim_frames,
-                  sim_frames * frame_dt / std::max(1e-9, wall), lockstep() ? ", lockstep" : "", sim_ms.avg(),
+                  sim_frames * frame_dt / std::max(1e-9, wall), lockstep() ? ", lockstep" : "",
+                  static_cast<long long>(frames_owning), sim_ms.avg(),
                   render_ms.avg(), sheet_ms.avg(), prepare_ms.avg(), ui_ms.avg(),
                   sim->sheet().tris.size(), sim->sheet().tears.size());
       if (!opt.screenshot.empty()) {
