@@ -51,6 +51,7 @@ void BM_Frame(benchmark::State& state) {
   state.counters["relaxation_ms"] = sum.relaxation / n;
   state.counters["frame_ms"] = sum.frame / n;
   state.counters["tears"] = static_cast<double>(sim.sheet().tears.size());
+  state.counters["cuts"] = static_cast<double>(sim.remesh_count()) / n;  // per frame
   // Work of the implicit solver per frame (includes the frames of the warm-up before the timed loop: none).
   const ImplicitStats solver = sim.solver_stats();
   state.counters["factorizations"] = static_cast<double>(solver.factorizations) / n;
