@@ -40,9 +40,9 @@ struct SimulationClock {
 };
 
 // One job at a time on a worker thread: start() hands it over, wait() returns once it has finished. The
-// viewer starts a simulation step after the frame has read everything it needs from the simulation and
-// waits for it before the next frame reads again, so the step overlaps the drawing (on llvmpipe the
-// rasterisation is CPU work too, on the other core).
+// viewer starts the due simulation steps after a frame has read everything it needs from the simulation;
+// later frames check busy() and draw the last state while the job runs (on llvmpipe the rasterisation is
+// CPU work too, on the other core), and the first frame that finds it done reads the sheet again.
 class BackgroundStepper {
  public:
   BackgroundStepper() : worker_([this] { loop(); }) {}
