@@ -6,7 +6,8 @@
 // go; left drag elsewhere orbits, right/middle drag elsewhere pans, wheel zooms.
 // Keys: Space play/pause, N step, R reset, G select every finger on the sheet (a hand), Q/E rotate the
 // selected fingers about their centroid around the view axis, Esc clear the selection, W wireframe,
-// Ctrl+S record the session to a scenario file, F frame the sheet.
+// Ctrl+S record the session to a scenario file, F frame the sheet. Another scenario loads from the
+// panel's Scenario section or by dropping its file on the window.
 // The simulation follows the wall clock (SimulationClock) and its steps run on a worker thread
 // (BackgroundStepper) while frames are drawn. A frame that finds no step running owns the simulation: it
 // copies what the panel, the markers and the input read (SheetView), applies the queued edits, uploads the
@@ -238,6 +239,8 @@ struct App {
   double last_pick_us = 0, max_pick_us = 0;
   int picks = 0;
   char record_path[512] = {0};
+  char load_path[512] = {0};
+  std::string dropped_path;  // a file dropped on the window, loaded by the next frame
   std::string status;
   double status_until = 0;
   bool pending_reset_params = false;
@@ -470,6 +473,26 @@ struct App {
     for (int i : ids) move(i, c + r * (finger_goal(i) - c));
   }
 
+  // Another scenario replaces the session (its parameters taken as the panel's); a file that does not
+  // load leaves the session as it was and says why in the panel.
+  void load(const std::string& path) {
+    Scenario loaded;
+    try {
+      loaded = load_scenario(path);
+    } catch (const std::exception& e) {
+      say(std::string("not loaded: ") + e.what());
+      return;
+    }
+    sync();
+    scenario = std::move(loaded);
+    take_parameters_from_scenario();
+    reset();
+    camera.frame_sheet(sim->sheet(), scenario.sim.gravity);
+    glfwSetWindowTitle(window, ("papertear-viewer — " + scenario.name).c_str());
+    std::snprintf(load_path, sizeof load_path, "%s", path.c_str());
+    say("loaded " + path);
+  }
+
   void record() { record_to(record_path); }
   void record_to(const std::string& path) {
     sync();
@@ -670,6 +693,12 @@ struct App {
       }
     }
 
+    if (ImGui::CollapsingHeader("Scenario")) {
+      ImGui::InputText("path", load_path, sizeof load_path);
+      if (ImGui::Button("Load")) load(load_path);
+      ImGui::SameLine();
+      ImGui::TextDisabled("or drop a .json file on the window");
+    }
     if (ImGui::CollapsingHeader("Record", ImGuiTreeNodeFlags_DefaultOpen)) {
       ImGui::InputText("file", record_path, sizeof record_path);
       if (ImGui::Button("Record session (Ctrl+S)")) record();
@@ -935,6 +964,10 @@ struct App {
       ImGui_ImplOpenGL3_NewFrame();
       ImGui_ImplGlfw_NewFrame();
       ImGui::NewFrame();
+      if (!dropped_path.empty()) {
+        load(dropped_path);
+        dropped_path.clear();
+      }
       if (!headless) handle_input(dt);
       else if (opt.demo_drag) demo_input(frames_done);
       int steps = 0;
@@ -1032,6 +1065,10 @@ int main(int argc, char** argv) {
     return kExitInternal;
   }
   glfwMakeContextCurrent(app->window);
+  glfwSetWindowUserPointer(app->window, app.get());
+  glfwSetDropCallback(app->window, [](GLFWwindow* w, int count, const char** paths) {
+    if (count > 0) static_cast<App*>(glfwGetWindowUserPointer(w))->dropped_path = paths[0];
+  });
   glfwSwapInterval(opt.frames >= 0 ? 0 : 1);
 
   IMGUI_CHECKVERSION();
@@ -1045,6 +1082,7 @@ int main(int argc, char** argv) {
   try {
     if (!app->renderer.init()) throw std::runtime_error("OpenGL initialisation failed");
     app->take_parameters_from_scenario();
+    std::snprintf(app->load_path, sizeof app->load_path, "%s", opt.scenario.c_str());
     app->reset();
     app->camera.frame_sheet(app->sim->sheet(), app->scenario.sim.gravity);
     status = app->run();
