@@ -1,6 +1,7 @@
 #include "systems/block_ldlt.hpp"
 
 #include "components/capacity_bytes.hpp"
+#include "systems/dense_kernels.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
@@ -356,22 +357,22 @@ void update_chunk(const std::vector<Mat3>& values, int32_t s, int32_t c, const s
                                                                                    s_rows[r1]) - d_rows);
     if (a1 <= a0) continue;
     const int32_t d_rows_count = d_end - f.row_start[d], d_columns = f.super_start[d + 1] - f.super_start[d];
-    const ConstPanel ld_panel(f.panel.data() + f.panel_start[d], 3 * d_rows_count, 3 * d_columns);
-    const int32_t m = a1 - a0, k = last - first;
-    const auto rows_of = [&](int32_t a, int32_t count) {
-      return ld_panel.middleRows(3 * (a - f.row_start[d]), 3 * count);
-    };
+    const int64_t d_ld = 3 * d_rows_count;  // the descendant's panel: 3·rows × 3·columns, column-major
+    const int32_t m = a1 - a0, k = last - first, width = 3 * d_columns;
+    const auto rows_of = [&](int32_t a) { return f.panel.data() + f.panel_start[d] + 3 * (a - f.row_start[d]); };
     product.resize(static_cast<size_t>(9) * m * k);
     Panel cp(product.data(), 3 * m, 3 * k);
     // With the whole diagonal part in the chunk, only its lower triangle is computed (rows of s's own
     // columns: the upper one is never read), the rows below by a general product.
+    const DenseKernels& kernels = dense_kernels();
     const bool triangle = a0 == first && a1 >= last;
     if (triangle) {
-      cp.topRows(3 * k).triangularView<Eigen::Lower>() = rows_of(first, k) * rows_of(first, k).transpose();
+      kernels.syrk_lower(3 * k, width, rows_of(first), d_ld, cp.data(), 3 * m);
       if (a1 > last)
-        cp.bottomRows(3 * (a1 - last)).noalias() = rows_of(last, a1 - last) * rows_of(first, k).transpose();
+        kernels.gemm_nt(3 * (a1 - last), 3 * k, width, rows_of(last), d_ld, rows_of(first), d_ld, cp.data() + 3 * k,
+                        3 * m);
     } else {
-      cp.noalias() = rows_of(a0, m) * rows_of(first, k).transpose();
+      kernels.gemm_nt(3 * m, 3 * k, width, rows_of(a0), d_ld, rows_of(first), d_ld, cp.data(), 3 * m);
     }
     for (int32_t b = 0; b < k; ++b) {
       const int32_t column = d_rows[first + b] - first_column;
@@ -393,10 +394,7 @@ void update_chunk(const std::vector<Mat3>& values, int32_t s, int32_t c, const s
 // positive (the matrix is not SPD, or lost it to rounding) or not finite.
 bool factor_diagonal(int32_t s, SupernodalFactor& f) {
   const int32_t rows = f.row_start[s + 1] - f.row_start[s], width = 3 * (f.super_start[s + 1] - f.super_start[s]);
-  Panel panel(f.panel.data() + f.panel_start[s], 3 * rows, width);
-  Eigen::Ref<Eigen::MatrixXd> diagonal = panel.topRows(width);
-  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(diagonal);
-  return llt.info() == Eigen::Success && diagonal.diagonal().allFinite();
+  return dense_kernels().llt_lower(width, f.panel.data() + f.panel_start[s], 3 * rows);
 }
 
 // The rows of chunk `c` below the diagonal block: L_below = A_below L_ss⁻ᵀ.
@@ -404,9 +402,8 @@ void solve_chunk(int32_t s, int32_t c, SupernodalFactor& f) {
   const int32_t rows = f.row_start[s + 1] - f.row_start[s], columns = f.super_start[s + 1] - f.super_start[s];
   const int32_t r0 = std::max(f.chunk_begin[c], columns), r1 = f.chunk_begin[c + 1];
   if (r1 <= r0) return;
-  Panel panel(f.panel.data() + f.panel_start[s], 3 * rows, 3 * columns);
-  auto below = panel.middleRows(3 * r0, 3 * (r1 - r0));
-  panel.topRows(3 * columns).triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(below);
+  double* panel = f.panel.data() + f.panel_start[s];
+  dense_kernels().solve_right_lower_transposed(3 * (r1 - r0), 3 * columns, panel, 3 * rows, panel + 3 * r0, 3 * rows);
 }
 
 void set_positions(int32_t s, const SupernodalFactor& f, std::vector<int32_t>& position) {

@@ -1,0 +1,53 @@
+#include "systems/dense_kernels.hpp"
+
+#include <cstdlib>
+#include <cstring>
+
+#define PT_DENSE_BUILD baseline
+#include "systems/dense_kernels_impl.inc"
+
+namespace pt {
+
+#if defined(PT_HAVE_AVX2_KERNELS)
+namespace dense::avx2 {
+void fill_fma(DenseKernels& k);  // dense_kernels_avx2.cpp
+}
+#endif
+
+const DenseKernels& baseline_dense_kernels() {
+  static const DenseKernels k = [] {
+    DenseKernels d{};
+    d.name = "baseline";
+    dense::baseline::fill(d);
+    return d;
+  }();
+  return k;
+}
+
+const DenseKernels* avx2_dense_kernels() {
+#if defined(PT_HAVE_AVX2_KERNELS)
+  static const DenseKernels* k = []() -> const DenseKernels* {
+    __builtin_cpu_init();
+    if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma")) return nullptr;
+    static DenseKernels d{};
+    d.name = "avx2+fma";
+    dense::avx2::fill_fma(d);
+    return &d;
+  }();
+  return k;
+#else
+  return nullptr;
+#endif
+}
+
+const DenseKernels& dense_kernels() {
+  static const DenseKernels& k = []() -> const DenseKernels& {
+    const char* forced = std::getenv("PAPERTEAR_DENSE_KERNELS");
+    if (forced && std::strcmp(forced, "baseline") == 0) return baseline_dense_kernels();
+    if (const DenseKernels* a = avx2_dense_kernels()) return *a;
+    return baseline_dense_kernels();
+  }();
+  return k;
+}
+
+}  // namespace pt

@@ -1,0 +1,36 @@
+// Dense kernels of the supernodal factorisation (systems/block_ldlt.cpp): the panel products, the
+// diagonal block's Cholesky and the triangular solve below it, on column-major matrices given by
+// pointer and leading dimension. They are most of a big sheet's factorisation (a 10 000-triangle sheet:
+// 0.57 GFlop per factorisation), and Debian builds for the x86-64 baseline, whose SSE2 kernels reach
+// 6–7 GFlop/s per core on this machine. So there are two builds of the same source
+// (dense_kernels_impl.inc): the baseline one and one compiled for AVX2 + FMA, chosen once per process by
+// what the CPU supports. A process uses one of them throughout, so results stay bit-identical at any
+// thread count; they differ between the two builds by rounding (FMA).
+#pragma once
+
+#include <cstdint>
+
+namespace pt {
+
+struct DenseKernels {
+  const char* name;
+  // C = A Aᵀ on the lower triangle of C (n × n); A is n × k. The strict upper triangle is not written.
+  void (*syrk_lower)(int32_t n, int32_t k, const double* a, int64_t lda, double* c, int64_t ldc);
+  // C = A Bᵀ; A is m × k, B is n × k, C is m × n.
+  void (*gemm_nt)(int32_t m, int32_t n, int32_t k, const double* a, int64_t lda, const double* b, int64_t ldb,
+                  double* c, int64_t ldc);
+  // In place: the lower triangle of A (n × n, symmetric positive definite) becomes L with A = L Lᵀ.
+  // False when a pivot is not positive or the factor is not finite.
+  bool (*llt_lower)(int32_t n, double* a, int64_t lda);
+  // In place: B = B L⁻ᵀ, L the lower triangle of an n × n matrix, B m × n.
+  void (*solve_right_lower_transposed)(int32_t m, int32_t n, const double* l, int64_t ldl, double* b, int64_t ldb);
+};
+
+// The kernels this process uses: the AVX2 + FMA build when the CPU has both and the build has it, unless
+// the environment says PAPERTEAR_DENSE_KERNELS=baseline.
+const DenseKernels& dense_kernels();
+// Each build on its own (tests, benchmarks); avx2_dense_kernels() is null when this CPU or build lacks it.
+const DenseKernels& baseline_dense_kernels();
+const DenseKernels* avx2_dense_kernels();
+
+}  // namespace pt

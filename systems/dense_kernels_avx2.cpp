@@ -1,0 +1,150 @@
+// The AVX2 + FMA build of the dense kernels (see dense_kernels.hpp), compiled with -mavx2 -mfma and
+// -DEigen=PtEigenAvx2 (CMakeLists.txt); it includes nothing that brings in Eigen under its own name.
+//
+// The products and the triangular solve are written out here rather than taken from Eigen: Eigen's AVX
+// kernels treat the rows of a panel differently by their position in it (packets, remainders), so a row
+// chunk's results would depend on where the chunk begins, and the factor on how the panels were chunked,
+// that is on the thread count. Here every entry is one chain of fused multiply-adds over the inner index
+// in increasing order, computed in a vector lane whatever its row (a column's last rows go through a
+// masked vector, not a scalar path), so an entry's bits do not depend on the chunk, the row block or the
+// kernel (the lower triangle of syrk_lower equals gemm_nt's entries).
+#include "systems/dense_kernels.hpp"
+
+#include <immintrin.h>
+
+#include <algorithm>
+
+#define PT_DENSE_BUILD avx2
+#include "systems/dense_kernels_impl.inc"
+
+namespace pt::dense::avx2 {
+namespace {
+
+// Lanes 0..r−1 of a 4-lane mask (r in 1..3): the last, partial vector of a column's rows. Masked-off lanes
+// are neither read (no fault past the matrix) nor written.
+inline __m256i first_lanes(int32_t r) {
+  return _mm256_cmpgt_epi64(_mm256_set1_epi64x(r), _mm256_setr_epi64x(0, 1, 2, 3));
+}
+
+// C(i .. i+4·RV−1, j .. j+NC−1) = A(rows, :) B(j .. j+NC−1, :)ᵀ, RV vectors of four rows, the last one
+// partial when MASKED. RV·NC accumulators, one fused multiply-add chain per entry over q = 0, 1, … k−1.
+template <int RV, int NC, bool MASKED>
+inline void tile(int32_t i, int32_t j, int32_t k, const double* a, int64_t lda, const double* b, int64_t ldb, double* c,
+                 int64_t ldc, __m256i mask) {
+  __m256d acc[RV][NC];
+  for (int r = 0; r < RV; ++r)
+    for (int t = 0; t < NC; ++t) acc[r][t] = _mm256_setzero_pd();
+  for (int32_t q = 0; q < k; ++q) {
+    const double* aq = a + i + q * lda;
+    const double* bq = b + j + q * ldb;
+    __m256d av[RV];
+    for (int r = 0; r < RV; ++r)
+      av[r] = (MASKED && r == RV - 1) ? _mm256_maskload_pd(aq + 4 * r, mask) : _mm256_loadu_pd(aq + 4 * r);
+    for (int t = 0; t < NC; ++t) {
+      const __m256d bt = _mm256_broadcast_sd(bq + t);
+      for (int r = 0; r < RV; ++r) acc[r][t] = _mm256_fmadd_pd(av[r], bt, acc[r][t]);
+    }
+  }
+  for (int t = 0; t < NC; ++t)
+    for (int r = 0; r < RV; ++r) {
+      double* cc = c + i + 4 * r + (j + t) * ldc;
+      if (MASKED && r == RV - 1) _mm256_maskstore_pd(cc, mask, acc[r][t]);
+      else _mm256_storeu_pd(cc, acc[r][t]);
+    }
+}
+
+// Rows [i0, i1) of columns j .. j+NC−1: twelve rows per step (three loads and NC broadcasts per 3·NC
+// fused multiply-adds), then eight, four, and a masked last vector.
+template <int NC>
+void column_block(int32_t i0, int32_t i1, int32_t j, int32_t k, const double* a, int64_t lda, const double* b,
+                  int64_t ldb, double* c, int64_t ldc) {
+  const __m256i none = _mm256_setzero_si256();
+  int32_t i = i0;
+  for (; i + 12 <= i1; i += 12) tile<3, NC, false>(i, j, k, a, lda, b, ldb, c, ldc, none);
+  if (i + 8 <= i1) {
+    tile<2, NC, false>(i, j, k, a, lda, b, ldb, c, ldc, none);
+    i += 8;
+  }
+  if (i + 4 <= i1) {
+    tile<1, NC, false>(i, j, k, a, lda, b, ldb, c, ldc, none);
+    i += 4;
+  }
+  if (i < i1) tile<1, NC, true>(i, j, k, a, lda, b, ldb, c, ldc, first_lanes(i1 - i));
+}
+
+void column_block_any(int32_t nc, int32_t i0, int32_t i1, int32_t j, int32_t k, const double* a, int64_t lda,
+                      const double* b, int64_t ldb, double* c, int64_t ldc) {
+  switch (nc) {
+    case 4: column_block<4>(i0, i1, j, k, a, lda, b, ldb, c, ldc); break;
+    case 3: column_block<3>(i0, i1, j, k, a, lda, b, ldb, c, ldc); break;
+    case 2: column_block<2>(i0, i1, j, k, a, lda, b, ldb, c, ldc); break;
+    case 1: column_block<1>(i0, i1, j, k, a, lda, b, ldb, c, ldc); break;
+    default: break;
+  }
+}
+
+void gemm_nt_fma(int32_t m, int32_t n, int32_t k, const double* a, int64_t lda, const double* b, int64_t ldb, double* c,
+                 int64_t ldc) {
+  for (int32_t j = 0; j < n; j += 4) column_block_any(std::min<int32_t>(4, n - j), 0, m, j, k, a, lda, b, ldb, c, ldc);
+}
+
+// The lower triangle: each block of (up to) four columns from its diagonal down. The block on the
+// diagonal is computed whole into a scratch and only its lower part copied (its entries are the same
+// chains as gemm_nt's).
+void syrk_lower_fma(int32_t n, int32_t k, const double* a, int64_t lda, double* c, int64_t ldc) {
+  for (int32_t j = 0; j < n; j += 4) {
+    const int32_t nc = std::min<int32_t>(4, n - j);
+    double block[16];
+    column_block_any(nc, 0, nc, 0, k, a + j, lda, a + j, lda, block, 4);
+    for (int32_t t = 0; t < nc; ++t)
+      for (int32_t r = t; r < nc; ++r) c[(j + r) + (j + t) * ldc] = block[r + 4 * t];
+    column_block_any(nc, j + nc, n, j, k, a, lda, a, lda, c, ldc);
+  }
+}
+
+// B = B L⁻ᵀ, row by row independent: x_j = (b_j − Σ_{q<j} x_q L(j, q)) / L(j, j), the sum subtracted term
+// by term in increasing q (fnmadd: one rounding each). RV vectors of rows at a time (independent chains
+// hide the fused multiply-add latency), the last one partial when MASKED.
+template <int RV, bool MASKED>
+inline void solve_rows(int32_t i, int32_t n, const double* l, int64_t ldl, double* b, int64_t ldb, __m256i mask) {
+  for (int32_t j = 0; j < n; ++j) {
+    double* bj = b + i + j * ldb;
+    __m256d s[RV];
+    for (int r = 0; r < RV; ++r)
+      s[r] = (MASKED && r == RV - 1) ? _mm256_maskload_pd(bj + 4 * r, mask) : _mm256_loadu_pd(bj + 4 * r);
+    for (int32_t q = 0; q < j; ++q) {
+      const double* bq = b + i + q * ldb;
+      const __m256d lq = _mm256_broadcast_sd(l + j + q * ldl);
+      for (int r = 0; r < RV; ++r) {
+        const __m256d x = (MASKED && r == RV - 1) ? _mm256_maskload_pd(bq + 4 * r, mask) : _mm256_loadu_pd(bq + 4 * r);
+        s[r] = _mm256_fnmadd_pd(x, lq, s[r]);
+      }
+    }
+    const __m256d d = _mm256_broadcast_sd(l + j + j * ldl);
+    for (int r = 0; r < RV; ++r) {
+      const __m256d x = _mm256_div_pd(s[r], d);
+      if (MASKED && r == RV - 1) _mm256_maskstore_pd(bj + 4 * r, mask, x);
+      else _mm256_storeu_pd(bj + 4 * r, x);
+    }
+  }
+}
+
+void solve_right_lower_transposed_fma(int32_t m, int32_t n, const double* l, int64_t ldl, double* b, int64_t ldb) {
+  const __m256i none = _mm256_setzero_si256();
+  int32_t i = 0;
+  for (; i + 16 <= m; i += 16) solve_rows<4, false>(i, n, l, ldl, b, ldb, none);
+  for (; i + 4 <= m; i += 4) solve_rows<1, false>(i, n, l, ldl, b, ldb, none);
+  if (i < m) solve_rows<1, true>(i, n, l, ldl, b, ldb, first_lanes(m - i));
+}
+
+}  // namespace
+
+// The Cholesky of a diagonal block stays Eigen's (one call per supernode, whatever the chunks).
+void fill_fma(DenseKernels& k) {
+  fill(k);
+  k.syrk_lower = syrk_lower_fma;
+  k.gemm_nt = gemm_nt_fma;
+  k.solve_right_lower_transposed = solve_right_lower_transposed_fma;
+}
+
+}  // namespace pt::dense::avx2

@@ -1,0 +1,140 @@
+// The dense kernels of the supernodal factorisation (systems/dense_kernels.hpp), each build that this CPU
+// runs (baseline, and AVX2 + FMA where available), against plain loops: products, the Cholesky factor and
+// the triangular solve, on strided panels with guard values around them that must stay untouched.
+#include "systems/dense_kernels.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+namespace pt {
+namespace {
+
+std::vector<const DenseKernels*> builds() {
+  std::vector<const DenseKernels*> b{&baseline_dense_kernels()};
+  if (const DenseKernels* a = avx2_dense_kernels()) b.push_back(a);
+  return b;
+}
+
+// A column-major m × n matrix inside a buffer of leading dimension ld > m, the rest filled with `guard`.
+struct Strided {
+  int32_t m, n;
+  int64_t ld;
+  std::vector<double> data;
+  Strided(int32_t rows, int32_t cols, int64_t lead, double guard) : m(rows), n(cols), ld(lead), data(lead * cols + 7, guard) {}
+  double& operator()(int32_t i, int32_t j) { return data[i + j * ld]; }
+  double operator()(int32_t i, int32_t j) const { return data[i + j * ld]; }
+};
+
+Strided random_matrix(int32_t m, int32_t n, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Strided a(m, n, m + 5, 1234.5);
+  for (int32_t j = 0; j < n; ++j)
+    for (int32_t i = 0; i < m; ++i) a(i, j) = u(rng);
+  return a;
+}
+
+void expect_guards(const Strided& a, double guard) {
+  for (size_t q = 0; q < a.data.size(); ++q) {
+    const int64_t i = static_cast<int64_t>(q) % a.ld, j = static_cast<int64_t>(q) / a.ld;
+    if (i >= a.m || j >= a.n) {
+      ASSERT_EQ(a.data[q], guard) << "written outside the matrix at " << q;
+    }
+  }
+}
+
+TEST(DenseKernels, ProductsMatchLoops) {
+  std::mt19937 rng(7);
+  for (const DenseKernels* kern : builds())
+    for (const auto [m, n, k] : {std::array{3, 3, 3}, std::array{12, 9, 6}, std::array{37, 21, 48}, std::array{96, 60, 33}}) {
+      const Strided a = random_matrix(m, k, rng), b = random_matrix(n, k, rng);
+      Strided c(m, n, m + 3, -7.0);
+      kern->gemm_nt(m, n, k, a.data.data(), a.ld, b.data.data(), b.ld, c.data.data(), c.ld);
+      for (int32_t i = 0; i < m; ++i)
+        for (int32_t j = 0; j < n; ++j) {
+          double s = 0;
+          for (int32_t q = 0; q < k; ++q) s += a(i, q) * b(j, q);
+          ASSERT_NEAR(c(i, j), s, 1e-12 * k) << kern->name << " gemm " << m << "x" << n << "x" << k;
+        }
+      expect_guards(c, -7.0);
+
+      Strided l(n, n, n + 2, -7.0);
+      for (int32_t j = 0; j < n; ++j)
+        for (int32_t i = 0; i < j; ++i) l(i, j) = 99.0;  // strict upper triangle: must stay
+      const Strided x = random_matrix(n, k, rng);
+      kern->syrk_lower(n, k, x.data.data(), x.ld, l.data.data(), l.ld);
+      for (int32_t j = 0; j < n; ++j)
+        for (int32_t i = 0; i < n; ++i) {
+          if (i < j) {
+            ASSERT_EQ(l(i, j), 99.0) << kern->name << " syrk wrote above the diagonal";
+            continue;
+          }
+          double s = 0;
+          for (int32_t q = 0; q < k; ++q) s += x(i, q) * x(j, q);
+          ASSERT_NEAR(l(i, j), s, 1e-12 * k) << kern->name << " syrk " << n << "x" << k;
+        }
+      expect_guards(l, -7.0);
+    }
+}
+
+TEST(DenseKernels, CholeskyAndSolveMatchLoops) {
+  std::mt19937 rng(11);
+  for (const DenseKernels* kern : builds())
+    for (const int32_t n : {3, 9, 30, 75}) {
+      // A = X Xᵀ + n I: symmetric positive definite.
+      const Strided x = random_matrix(n, n, rng);
+      Strided a(n, n, n + 4, 5.5);
+      for (int32_t i = 0; i < n; ++i)
+        for (int32_t j = 0; j < n; ++j) {
+          double s = i == j ? n : 0.0;
+          for (int32_t q = 0; q < n; ++q) s += x(i, q) * x(j, q);
+          a(i, j) = s;
+        }
+      const Strided original = a;
+      ASSERT_TRUE(kern->llt_lower(n, a.data.data(), a.ld)) << kern->name;
+      expect_guards(a, 5.5);
+      // L Lᵀ = A on the lower triangle.
+      for (int32_t i = 0; i < n; ++i)
+        for (int32_t j = 0; j <= i; ++j) {
+          double s = 0;
+          for (int32_t q = 0; q <= j; ++q) s += a(i, q) * a(j, q);
+          ASSERT_NEAR(s, original(i, j), 1e-11 * n) << kern->name << " llt " << n;
+        }
+      // B L⁻ᵀ: (result) Lᵀ = B.
+      const int32_t m = n + 7;
+      const Strided b = random_matrix(m, n, rng);
+      Strided y = b;
+      kern->solve_right_lower_transposed(m, n, a.data.data(), a.ld, y.data.data(), y.ld);
+      for (int32_t i = 0; i < m; ++i)
+        for (int32_t j = 0; j < n; ++j) {
+          double s = 0;
+          for (int32_t q = 0; q <= j; ++q) s += y(i, q) * a(j, q);  // (Y Lᵀ)(i, j) = Σ_q Y(i, q) L(j, q)
+          ASSERT_NEAR(s, b(i, j), 1e-10 * n) << kern->name << " solve " << m << "x" << n;
+        }
+      expect_guards(y, 1234.5);
+    }
+}
+
+TEST(DenseKernels, CholeskyRefusesWhatIsNotPositiveDefinite) {
+  for (const DenseKernels* kern : builds()) {
+    Strided a(3, 3, 3, 0.0);
+    a(0, 0) = 1, a(1, 1) = -2, a(2, 2) = 1;
+    EXPECT_FALSE(kern->llt_lower(3, a.data.data(), a.ld)) << kern->name;
+    Strided b(2, 2, 2, 0.0);
+    b(0, 0) = std::nan(""), b(1, 1) = 1;
+    EXPECT_FALSE(kern->llt_lower(2, b.data.data(), b.ld)) << kern->name;
+  }
+}
+
+TEST(DenseKernels, ThisCpuUsesTheFastestBuildItHas) {
+  const DenseKernels& k = dense_kernels();
+  if (std::getenv("PAPERTEAR_DENSE_KERNELS")) GTEST_SKIP() << "forced by the environment";
+  if (avx2_dense_kernels()) EXPECT_EQ(&k, avx2_dense_kernels());
+  else EXPECT_EQ(&k, &baseline_dense_kernels());
+  std::printf("dense kernels: %s\n", k.name);
+}
+
+}  // namespace
+}  // namespace pt
