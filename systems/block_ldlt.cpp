@@ -727,15 +727,20 @@ void solve_block_ldlt(const BlockLdlt& f, const double* b, double* x) {
   for (int32_t k = 0; k < f.n; ++k) z.segment<3>(3 * k) = Eigen::Map<const Vec3>(b + 3 * f.order[k]);
   if (!f.supernodal) {
     const ColumnFactor& c = f.columns;
+    // Entry i of the solution is held in a local while its column is applied: as a segment of z it had to
+    // be reloaded after every store into z (they may alias, as far as the compiler knows). Same operations
+    // in the same order.
     for (int32_t i = 0; i < f.n; ++i) {  // L y = b, diagonal blocks C_i
-      z.segment<3>(3 * i) = (c.c_inverse[i] * z.segment<3>(3 * i)).eval();
+      const Vec3 zi = c.c_inverse[i] * z.segment<3>(3 * i);
+      z.segment<3>(3 * i) = zi;
       for (int32_t p = c.l_start[i]; p < c.l_start[i + 1]; ++p)
-        z.segment<3>(3 * c.l_row[p]).noalias() -= c.l_blocks[p] * z.segment<3>(3 * i);
+        z.segment<3>(3 * c.l_row[p]).noalias() -= c.l_blocks[p] * zi;
     }
     for (int32_t i = f.n - 1; i >= 0; --i) {  // Lᵀ x = y
+      Vec3 zi = z.segment<3>(3 * i);
       for (int32_t p = c.l_start[i]; p < c.l_start[i + 1]; ++p)
-        z.segment<3>(3 * i).noalias() -= c.l_blocks[p].transpose() * z.segment<3>(3 * c.l_row[p]);
-      z.segment<3>(3 * i) = (c.c_inverse[i].transpose() * z.segment<3>(3 * i)).eval();
+        zi.noalias() -= c.l_blocks[p].transpose() * z.segment<3>(3 * c.l_row[p]);
+      z.segment<3>(3 * i) = c.c_inverse[i].transpose() * zi;
     }
   } else {
     const SupernodalFactor& sf = f.supernodes;
