@@ -36,6 +36,15 @@ struct ImplicitSolver {
   std::vector<std::pair<int32_t, int32_t>> block_key;  // sorted (I, J) of every non-zero 3x3 block (both halves)
   std::vector<Mat3> block_values;                  // the matrix, one 3x3 block per key
   std::vector<std::array<int32_t, 9>> tri_block;   // per triangle, corner pair (a, b) → block; −1 if not free or not read by the factor
+  // Per triangle, where each of its six stiffness blocks K_k (kPairA/B order) goes: the key that receives
+  // K_k (≥ 0), −2 − key when that key receives K_kᵀ (the factor reads one block of a symmetric pair), −1
+  // when neither (a held corner).
+  std::vector<std::array<int32_t, 6>> tri_dest;
+  struct HeldStiffness {
+    int32_t triangle, pair, row, held_vertex;
+    bool transpose;
+  };
+  std::vector<HeldStiffness> stiffness_held;       // rhs[row] −= K_k (or K_kᵀ) v⁺[held_vertex], in (triangle, pair) order
   std::vector<BendingStencil> stencils;
   struct HeldCoupling {
     int32_t row, held_vertex;
@@ -95,6 +104,7 @@ const ImplicitStats& implicit_solver_stats(const ImplicitSolver& solver) { retur
 size_t implicit_solver_bytes(const ImplicitSolver& s) {
   return sizeof(ImplicitSolver) + capacity_bytes(s.held) + capacity_bytes(s.free_index) + capacity_bytes(s.block_key) +
          capacity_bytes(s.block_column) + capacity_bytes(s.block_values) + capacity_bytes(s.tri_block) +
+         capacity_bytes(s.tri_dest) + capacity_bytes(s.stiffness_held) +
          capacity_bytes(s.stencils) + capacity_bytes(s.bending_held) + capacity_bytes(s.base_values) +
          block_ldlt_bytes(s.ldlt) + capacity_bytes(s.tri_k) + capacity_bytes(s.tri_energy) +
          capacity_bytes(s.tri_check) + capacity_bytes(s.next_frame) + capacity_bytes(s.next_corners) +
@@ -224,6 +234,21 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
   for (std::array<int32_t, 9>& tb : s.tri_block)
     for (int32_t& b : tb)
       if (b >= 0 && !s.ldlt.key_read[b]) b = -1;
+  // The assembly's destinations and its couplings to held vertices, decided here once per structure
+  // rather than per block and substep. Distinct corners have distinct free indices, so at most one block
+  // of a pair (a, b), (b, a) is read.
+  s.tri_dest.resize(nt);
+  s.stiffness_held.clear();
+  for (int32_t t = 0; t < nt; ++t)
+    for (int k = 0; k < 6; ++k) {
+      const int a = kPairA[k], b = kPairB[k];
+      const int32_t ab = s.tri_block[t][3 * a + b], ba = s.tri_block[t][3 * b + a];
+      s.tri_dest[t][k] = ab >= 0 ? ab : (a != b && ba >= 0 ? -2 - ba : -1);
+      if (a == b) continue;
+      const int32_t ia = s.free_index[T.tri[t][a]], ib = s.free_index[T.tri[t][b]];
+      if (ia >= 0 && ib < 0) s.stiffness_held.push_back({t, k, ia, T.tri[t][b], false});
+      if (ib >= 0 && ia < 0) s.stiffness_held.push_back({t, k, ib, T.tri[t][a], true});
+    }
   s.analysed = true;
   s.tri_k.resize(nt);
   s.tri_energy.resize(nt);
@@ -412,21 +437,20 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
       if (i < 0) continue;
       s.rhs.segment<3>(3 * i) = V.mass[v] * V.v[v] + h * (V.force[v] + V.mass[v] * params.gravity);
     }
-    for (int32_t t = 0; t < nt; ++t) {
+    for (int32_t t = 0; t < nt; ++t)
       for (int k = 0; k < 6; ++k) {
-        const int a = kPairA[k], b = kPairB[k];
-        const Mat3& kab = s.tri_k[t][k];
-        const int32_t va = T.tri[t][a], vb = T.tri[t][b];
-        const int32_t ia = s.free_index[va], ib = s.free_index[vb];
-        const int32_t blk_ab = s.tri_block[t][3 * a + b];
-        if (blk_ab >= 0) values[blk_ab] += kab;
-        if (a != b) {
-          const int32_t blk_ba = s.tri_block[t][3 * b + a];
-          if (blk_ba >= 0) values[blk_ba] += kab.transpose();
-          if (ia >= 0 && ib < 0) s.rhs.segment<3>(3 * ia) -= kab * vnext[vb];
-          if (ib >= 0 && ia < 0) s.rhs.segment<3>(3 * ib) -= kab.transpose() * vnext[va];
-        }
+        const int32_t dest = s.tri_dest[t][k];
+        if (dest >= 0)
+          values[dest] += s.tri_k[t][k];
+        else if (dest < -1)
+          values[-2 - dest] += s.tri_k[t][k].transpose();
       }
+    for (const ImplicitSolver::HeldStiffness& c : s.stiffness_held) {
+      const Mat3& kab = s.tri_k[c.triangle][c.pair];
+      if (c.transpose)
+        s.rhs.segment<3>(3 * c.row) -= kab.transpose() * vnext[c.held_vertex];
+      else
+        s.rhs.segment<3>(3 * c.row) -= kab * vnext[c.held_vertex];
     }
     for (const ImplicitSolver::HeldCoupling& c : s.bending_held)
       s.rhs.segment<3>(3 * c.row) -= c.weight * vnext[c.held_vertex];
