@@ -287,6 +287,15 @@ bool energy_bounded(const Sheet& sheet, ImplicitSolver& s, const ImplicitParams&
     mass_term += V.mass[v] * (h * s.alpha * vn[v].squaredNorm() + 0.5 * (vn[v] - V.v[v]).squaredNorm());
   }
   params.run(nt, params.grain, [&](int32_t begin, int32_t end) {
+    // The frames at x⁺ first, for the whole range, then the terms that read them: read right after
+    // corotated_frame stored them, F and R were loaded in 16-byte pairs straddling its 8-byte stores, which
+    // cannot be forwarded (the loads waited for the stores to reach the cache). Same values.
+    for (int32_t t = begin; t < end; ++t) {
+      const Tri& c = T.tri[t];
+      std::array<Vec3, 3>& xp = s.next_corners[t];
+      for (int a = 0; a < 3; ++a) xp[a] = V.x[c[a]] + h * vn[c[a]];
+      corotated_frame(xp[0], xp[1], xp[2], T.rest_inv[t], s.next_frame[t]);
+    }
     for (int32_t t = begin; t < end; ++t) {
       const Tri& c = T.tri[t];
       double quad = 0;  // v⁺ᵀ K_t v⁺ (K with the (h² + hβ) folded in)
@@ -298,10 +307,7 @@ bool energy_bounded(const Sheet& sheet, ImplicitSolver& s, const ImplicitParams&
       quad /= kscale;
       double work = 0;
       for (int a = 0; a < 3; ++a) work += T.corner_force[t][a].dot(vn[c[a]]);
-      std::array<Vec3, 3>& xp = s.next_corners[t];
-      for (int a = 0; a < 3; ++a) xp[a] = V.x[c[a]] + h * vn[c[a]];
-      CorotatedFrame& frame = s.next_frame[t];
-      corotated_frame(xp[0], xp[1], xp[2], T.rest_inv[t], frame);
+      const CorotatedFrame& frame = s.next_frame[t];
       const Mat32& F = frame.F;
       const Mat32& R = frame.R;
       const double tr = (R.transpose() * F).trace() - 2;
