@@ -50,10 +50,10 @@ void append_minimum_degree(const VertexGraph& g, const std::vector<int32_t>& ver
     mark[vertices[i]] = stamp;
     local[vertices[i]] = i;
   }
-  std::vector<Eigen::Triplet<double>> entries;
+  std::vector<std::pair<int32_t, int32_t>> entries;  // (row, column) of the subgraph's pattern
   std::vector<int32_t> outside;
   for (int32_t i = 0; i < m; ++i) {
-    entries.emplace_back(i, i, 1.0);
+    entries.emplace_back(i, i);
     const int32_t v = vertices[i];
     for (int32_t q = g.start[v]; q < g.start[v + 1]; ++q) {
       const int32_t w = g.adjacent[q];
@@ -63,20 +63,42 @@ void append_minimum_degree(const VertexGraph& g, const std::vector<int32_t>& ver
           local[w] = m + static_cast<int32_t>(outside.size());
           outside.push_back(w);
         }
-        entries.emplace_back(i, local[w], 1.0);
-        entries.emplace_back(local[w], i, 1.0);
+        entries.emplace_back(i, local[w]);
+        entries.emplace_back(local[w], i);
       } else if (mark[w] == stamp) {
-        entries.emplace_back(i, local[w], 1.0);
+        entries.emplace_back(i, local[w]);
       }
     }
   }
   const int32_t size = m + static_cast<int32_t>(outside.size());
   for (int32_t a = m; a < size; ++a)
-    for (int32_t b = m; b < size; ++b) entries.emplace_back(a, b, 1.0);
+    for (int32_t b = m; b < size; ++b) entries.emplace_back(a, b);
+  // The pattern by columns, rows ascending, no repeats: what Eigen's AMDOrdering builds (a SparseMatrix by
+  // setFromTriplets, summed with its transpose: the entries are symmetric already, as the graph is) before
+  // it calls the same minimum_degree_ordering, so the order is the same; those sparse passes cost as much
+  // as the ordering. Without a halo the columns come out sorted (rows are visited in increasing order).
+  std::vector<int32_t> start(size + 1, 0);
+  for (const auto& entry : entries) ++start[entry.second + 1];
+  for (int32_t c = 0; c < size; ++c) start[c + 1] += start[c];
+  std::vector<int32_t> rows(start[size]), next(start.begin(), start.end() - 1);
+  for (const auto& [r, c] : entries) rows[next[c]++] = r;
   Eigen::SparseMatrix<double> pattern(size, size);
-  pattern.setFromTriplets(entries.begin(), entries.end());
+  int32_t nonzeros = 0;
+  for (int32_t c = 0; c < size; ++c) {
+    const auto first = rows.begin() + start[c], last = rows.begin() + start[c + 1];
+    if (!std::is_sorted(first, last)) std::sort(first, last);
+    const auto end = std::unique(first, last);
+    std::copy(first, end, rows.begin() + nonzeros);
+    start[c] = nonzeros;
+    nonzeros += static_cast<int32_t>(end - first);
+  }
+  start[size] = nonzeros;
+  pattern.resizeNonZeros(nonzeros);
+  std::copy(start.begin(), start.end(), pattern.outerIndexPtr());
+  std::copy(rows.begin(), rows.begin() + nonzeros, pattern.innerIndexPtr());
+  std::fill(pattern.valuePtr(), pattern.valuePtr() + nonzeros, 0.0);
   Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> inverse_permutation;  // P⁻¹: new → old
-  Eigen::AMDOrdering<int>()(pattern, inverse_permutation);
+  Eigen::internal::minimum_degree_ordering(pattern, inverse_permutation);
   for (int32_t k = 0; k < size; ++k)
     if (inverse_permutation.indices()[k] < m) order.push_back(vertices[inverse_permutation.indices()[k]]);
 }
@@ -702,15 +724,20 @@ void solve_block_ldlt(const BlockLdlt& f, const double* b, double* x) {
   for (int32_t k = 0; k < f.n; ++k) z.segment<3>(3 * k) = Eigen::Map<const Vec3>(b + 3 * f.order[k]);
   if (!f.supernodal) {
     const ColumnFactor& c = f.columns;
+    // Entry i of the solution is held in a local while its column is applied: as a segment of z it had to
+    // be reloaded after every store into z (they may alias, as far as the compiler knows). Same operations
+    // in the same order.
     for (int32_t i = 0; i < f.n; ++i) {  // L y = b, diagonal blocks C_i
-      z.segment<3>(3 * i) = (c.c_inverse[i] * z.segment<3>(3 * i)).eval();
+      const Vec3 zi = c.c_inverse[i] * z.segment<3>(3 * i);
+      z.segment<3>(3 * i) = zi;
       for (int32_t p = c.l_start[i]; p < c.l_start[i + 1]; ++p)
-        z.segment<3>(3 * c.l_row[p]).noalias() -= c.l_blocks[p] * z.segment<3>(3 * i);
+        z.segment<3>(3 * c.l_row[p]).noalias() -= c.l_blocks[p] * zi;
     }
     for (int32_t i = f.n - 1; i >= 0; --i) {  // Lᵀ x = y
+      Vec3 zi = z.segment<3>(3 * i);
       for (int32_t p = c.l_start[i]; p < c.l_start[i + 1]; ++p)
-        z.segment<3>(3 * i).noalias() -= c.l_blocks[p].transpose() * z.segment<3>(3 * c.l_row[p]);
-      z.segment<3>(3 * i) = (c.c_inverse[i].transpose() * z.segment<3>(3 * i)).eval();
+        zi.noalias() -= c.l_blocks[p].transpose() * z.segment<3>(3 * c.l_row[p]);
+      z.segment<3>(3 * i) = c.c_inverse[i].transpose() * zi;
     }
   } else {
     const SupernodalFactor& sf = f.supernodes;

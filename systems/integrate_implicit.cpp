@@ -36,6 +36,15 @@ struct ImplicitSolver {
   std::vector<std::pair<int32_t, int32_t>> block_key;  // sorted (I, J) of every non-zero 3x3 block (both halves)
   std::vector<Mat3> block_values;                  // the matrix, one 3x3 block per key
   std::vector<std::array<int32_t, 9>> tri_block;   // per triangle, corner pair (a, b) → block; −1 if not free or not read by the factor
+  // Per triangle, where each of its six stiffness blocks K_k (kPairA/B order) goes: the key that receives
+  // K_k (≥ 0), −2 − key when that key receives K_kᵀ (the factor reads one block of a symmetric pair), −1
+  // when neither (a held corner).
+  std::vector<std::array<int32_t, 6>> tri_dest;
+  struct HeldStiffness {
+    int32_t triangle, pair, row, held_vertex;
+    bool transpose;
+  };
+  std::vector<HeldStiffness> stiffness_held;       // rhs[row] −= K_k (or K_kᵀ) v⁺[held_vertex], in (triangle, pair) order
   std::vector<BendingStencil> stencils;
   struct HeldCoupling {
     int32_t row, held_vertex;
@@ -44,6 +53,8 @@ struct ImplicitSolver {
   std::vector<HeldCoupling> bending_held;          // rhs[row] −= weight · v⁺[held_vertex], in stencil order
   std::vector<Mat3> base_values;                   // M(1 + hα) + (h² + hβ) Q, per block
   BlockLdlt ldlt;
+  std::vector<std::pair<int32_t, int32_t>> analysed_keys;  // the keys and positions ldlt was analysed for
+  std::vector<Vec2> analysed_rest;
   bool analysed = false;
 
   // Scratch reused every substep.
@@ -63,7 +74,8 @@ struct ImplicitSolver {
   ImplicitStats stats;
 
   std::vector<int32_t> row_start;                  // per free row I, its first key (keys sorted by row)
-  std::vector<int32_t> pair_row, pair_column;      // scratch of the structure build
+  std::vector<int32_t> pair_row, pair_column;      // scratch of the structure build (row −1: a held vertex)
+  std::vector<int32_t> pair_key;                   // scratch: the key of each pair
 
   std::vector<int32_t> block_column;              // J of every key (a row's columns, searched by block_of)
 
@@ -94,11 +106,13 @@ const ImplicitStats& implicit_solver_stats(const ImplicitSolver& solver) { retur
 size_t implicit_solver_bytes(const ImplicitSolver& s) {
   return sizeof(ImplicitSolver) + capacity_bytes(s.held) + capacity_bytes(s.free_index) + capacity_bytes(s.block_key) +
          capacity_bytes(s.block_column) + capacity_bytes(s.block_values) + capacity_bytes(s.tri_block) +
+         capacity_bytes(s.tri_dest) + capacity_bytes(s.stiffness_held) +
          capacity_bytes(s.stencils) + capacity_bytes(s.bending_held) + capacity_bytes(s.base_values) +
-         block_ldlt_bytes(s.ldlt) + capacity_bytes(s.tri_k) + capacity_bytes(s.tri_energy) +
+         block_ldlt_bytes(s.ldlt) + capacity_bytes(s.analysed_keys) + capacity_bytes(s.analysed_rest) + capacity_bytes(s.tri_k) + capacity_bytes(s.tri_energy) +
          capacity_bytes(s.tri_check) + capacity_bytes(s.next_frame) + capacity_bytes(s.next_corners) +
          static_cast<size_t>(s.rhs.size() + s.solution.size()) * sizeof(double) + capacity_bytes(s.velocity_next) +
-         capacity_bytes(s.row_start) + capacity_bytes(s.pair_row) + capacity_bytes(s.pair_column);
+         capacity_bytes(s.row_start) + capacity_bytes(s.pair_row) + capacity_bytes(s.pair_column) +
+         capacity_bytes(s.pair_key);
 }
 
 namespace {
@@ -125,14 +139,20 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
 
   // Non-zero blocks: every pair of free vertices that share a triangle or a hinge. Bucketed by row, each
   // row's repeats dropped with a stamp per column, then the (short) unique row sorted: the keys come out
-  // sorted by (I, J) without a global sort.
+  // sorted by (I, J) without a global sort. Every pair keeps the key it landed in (pair_key), so the
+  // triangles' and stencils' blocks are known without a search: pair q is corner pair (a, b) of triangle t
+  // at 9t + 3a + b, of stencil k at 9 nt + 16k + 4a + b, vertex v's diagonal at 9 nt + 16 ns + v (row −1
+  // when a vertex is held). A binary search per pair (block_of) took a third of this function's time,
+  // its branches mispredicted.
+  const int32_t ns = static_cast<int32_t>(s.stencils.size());
+  const int32_t stencil_pairs = 9 * nt, vertex_pairs = stencil_pairs + 16 * ns;
   s.pair_row.clear();
   s.pair_column.clear();
   auto add_pair = [&](int32_t a, int32_t b) {
     const int32_t i = s.free_index[a], j = s.free_index[b];
-    if (i < 0 || j < 0) return;
-    s.pair_row.push_back(i);
-    s.pair_column.push_back(j);
+    const bool free = i >= 0 && j >= 0;
+    s.pair_row.push_back(free ? i : -1);
+    s.pair_column.push_back(free ? j : -1);
   };
   for (const Tri& t : T.tri)
     for (int32_t a : t)
@@ -141,69 +161,106 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
     for (int32_t a : st.v)
       for (int32_t b : st.v) add_pair(a, b);
   for (int32_t v = 0; v < nv; ++v) add_pair(v, v);  // isolated free vertices still have their mass
+  const int32_t pairs = static_cast<int32_t>(s.pair_row.size());
+  s.pair_key.assign(pairs, -1);
   {
     std::vector<int32_t> start(s.free_count + 1, 0);
-    for (int32_t i : s.pair_row) ++start[i + 1];
+    for (int32_t i : s.pair_row)
+      if (i >= 0) ++start[i + 1];
     for (int32_t i = 0; i < s.free_count; ++i) start[i + 1] += start[i];
-    std::vector<int32_t> columns(s.pair_row.size()), next(start.begin(), start.end() - 1);
-    for (size_t q = 0; q < s.pair_row.size(); ++q) columns[next[s.pair_row[q]]++] = s.pair_column[q];
+    std::vector<int32_t> bucket(start[s.free_count]), next(start.begin(), start.end() - 1);
+    for (int32_t q = 0; q < pairs; ++q)
+      if (s.pair_row[q] >= 0) bucket[next[s.pair_row[q]]++] = q;
     s.block_key.clear();
     s.block_column.clear();
     s.row_start.assign(s.free_count + 1, 0);
-    std::vector<int32_t> stamp(s.free_count, -1);
+    std::vector<int32_t> stamp(s.free_count, -1), key_of_column(s.free_count, -1), unique;
     for (int32_t i = 0; i < s.free_count; ++i) {
-      const auto first = columns.begin() + start[i];
-      auto last = first;
-      for (auto it = first; it != columns.begin() + start[i + 1]; ++it)
-        if (stamp[*it] != i) {
-          stamp[*it] = i;
-          *last++ = *it;
+      unique.clear();
+      for (int32_t p = start[i]; p < start[i + 1]; ++p) {
+        const int32_t j = s.pair_column[bucket[p]];
+        if (stamp[j] != i) {
+          stamp[j] = i;
+          unique.push_back(j);
         }
-      std::sort(first, last);
-      for (auto it = first; it != last; ++it) {
-        s.block_key.emplace_back(i, *it);
-        s.block_column.push_back(*it);
       }
+      std::sort(unique.begin(), unique.end());
+      for (int32_t j : unique) {
+        key_of_column[j] = static_cast<int32_t>(s.block_key.size());
+        s.block_key.emplace_back(i, j);
+        s.block_column.push_back(j);
+      }
+      for (int32_t p = start[i]; p < start[i + 1]; ++p) s.pair_key[bucket[p]] = key_of_column[s.pair_column[bucket[p]]];
       s.row_start[i + 1] = static_cast<int32_t>(s.block_key.size());
     }
   }
 
   const int32_t n = 3 * s.free_count;
-  s.tri_block.assign(nt, {});
+  s.tri_block.resize(nt);
   for (int32_t t = 0; t < nt; ++t)
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b) {
-        const int32_t i = s.free_index[T.tri[t][a]], j = s.free_index[T.tri[t][b]];
-        s.tri_block[t][3 * a + b] = (i >= 0 && j >= 0) ? s.block_of(i, j) : -1;
-      }
+    for (int e = 0; e < 9; ++e) s.tri_block[t][e] = s.pair_key[9 * t + e];
 
-  // Constant part: lumped mass with mass damping, and the (constant) bending Hessian Q.
+  // Constant part: lumped mass with mass damping, and the (constant) bending Hessian Q. Each is c·I added to
+  // a block; the entries of c·I (diagonal, and the zeros times the factors off it) are formed once, in the
+  // order of the Eigen expression `Mat3::Identity() * f * g * k` they replace (bit-identical sums).
+  auto add_scaled_identity = [](double f, double g, double k, Mat3& block) {
+    const double diagonal = 1.0 * f * g * k, off = 0.0 * f * g * k;
+    for (int col = 0; col < 3; ++col)
+      for (int row = 0; row < 3; ++row) block(row, col) += row == col ? diagonal : off;
+  };
   const double h = params.dt;
   const double kscale = h * h + h * s.beta;
   s.base_values.assign(s.block_key.size(), Mat3::Zero());
   for (int32_t v = 0; v < nv; ++v) {
-    const int32_t i = s.free_index[v];
-    if (i < 0) continue;
-    s.base_values[s.block_of(i, i)] += Mat3::Identity() * V.mass[v] * (1 + h * s.alpha);
+    const int32_t key = s.pair_key[vertex_pairs + v];
+    if (key >= 0) add_scaled_identity(V.mass[v], 1 + h * s.alpha, 1.0, s.base_values[key]);
   }
   s.bending_held.clear();
-  for (const BendingStencil& st : s.stencils)
+  for (int32_t k = 0; k < ns; ++k) {
+    const BendingStencil& st = s.stencils[k];
     for (int a = 0; a < 4; ++a)
       for (int b = 0; b < 4; ++b) {
+        const int32_t key = s.pair_key[stencil_pairs + 16 * k + 4 * a + b];
+        if (key >= 0) add_scaled_identity(kscale, st.w[a], st.w[b], s.base_values[key]);
         const int32_t i = s.free_index[st.v[a]], j = s.free_index[st.v[b]];
-        if (i >= 0 && j >= 0) s.base_values[s.block_of(i, j)] += Mat3::Identity() * kscale * st.w[a] * st.w[b];
         if (i >= 0 && j < 0) s.bending_held.push_back({i, st.v[b], kscale * st.w[a] * st.w[b]});
       }
+  }
 
   std::vector<Vec2> free_rest(s.free_count);  // the pattern positions let the solver order by nested dissection
   for (int32_t v = 0; v < nv; ++v)
     if (s.free_index[v] >= 0) free_rest[s.free_index[v]] = V.rest[v];
-  analyze_block_ldlt(s.free_count, s.block_key, BlockLdltParams{}, s.ldlt, free_rest);
+  // The analysis is a function of the keys and, from `dissection_leaf` block rows on, the positions: a
+  // topology change that leaves them as they were keeps it (measured: 17 of the 47 rebuilds in 60 frames
+  // of the 100-triangle A4 scene, cuts that renumbered vertices into the same pattern).
+  const BlockLdltParams ldlt_params;
+  if (s.free_count < ldlt_params.dissection_leaf) free_rest.clear();  // not read by the analysis
+  if (!s.analysed || s.block_key != s.analysed_keys || free_rest != s.analysed_rest) {
+    analyze_block_ldlt(s.free_count, s.block_key, ldlt_params, s.ldlt, free_rest);
+    s.analysed_keys = s.block_key;
+    s.analysed_rest = std::move(free_rest);
+    s.stats.analyses += 1;
+  }
   s.block_values.resize(s.block_key.size());
   // The factorisation reads one block of each symmetric pair: the triangles scatter into that one only.
   for (std::array<int32_t, 9>& tb : s.tri_block)
     for (int32_t& b : tb)
       if (b >= 0 && !s.ldlt.key_read[b]) b = -1;
+  // The assembly's destinations and its couplings to held vertices, decided here once per structure
+  // rather than per block and substep. Distinct corners have distinct free indices, so at most one block
+  // of a pair (a, b), (b, a) is read.
+  s.tri_dest.resize(nt);
+  s.stiffness_held.clear();
+  for (int32_t t = 0; t < nt; ++t)
+    for (int k = 0; k < 6; ++k) {
+      const int a = kPairA[k], b = kPairB[k];
+      const int32_t ab = s.tri_block[t][3 * a + b], ba = s.tri_block[t][3 * b + a];
+      s.tri_dest[t][k] = ab >= 0 ? ab : (a != b && ba >= 0 ? -2 - ba : -1);
+      if (a == b) continue;
+      const int32_t ia = s.free_index[T.tri[t][a]], ib = s.free_index[T.tri[t][b]];
+      if (ia >= 0 && ib < 0) s.stiffness_held.push_back({t, k, ia, T.tri[t][b], false});
+      if (ib >= 0 && ia < 0) s.stiffness_held.push_back({t, k, ib, T.tri[t][a], true});
+    }
   s.analysed = true;
   s.tri_k.resize(nt);
   s.tri_energy.resize(nt);
@@ -213,7 +270,6 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
   s.next_valid = false;
   s.rhs.resize(n);
   s.solution.resize(n);
-  s.stats.analyses += 1;
 }
 
 // Spin brake: κ of the in-plane stiffness by level (0: the exact, stress-dependent κ), and the substeps a
@@ -242,6 +298,15 @@ bool energy_bounded(const Sheet& sheet, ImplicitSolver& s, const ImplicitParams&
     mass_term += V.mass[v] * (h * s.alpha * vn[v].squaredNorm() + 0.5 * (vn[v] - V.v[v]).squaredNorm());
   }
   params.run(nt, params.grain, [&](int32_t begin, int32_t end) {
+    // The frames at x⁺ first, for the whole range, then the terms that read them: read right after
+    // corotated_frame stored them, F and R were loaded in 16-byte pairs straddling its 8-byte stores, which
+    // cannot be forwarded (the loads waited for the stores to reach the cache). Same values.
+    for (int32_t t = begin; t < end; ++t) {
+      const Tri& c = T.tri[t];
+      std::array<Vec3, 3>& xp = s.next_corners[t];
+      for (int a = 0; a < 3; ++a) xp[a] = V.x[c[a]] + h * vn[c[a]];
+      corotated_frame(xp[0], xp[1], xp[2], T.rest_inv[t], s.next_frame[t]);
+    }
     for (int32_t t = begin; t < end; ++t) {
       const Tri& c = T.tri[t];
       double quad = 0;  // v⁺ᵀ K_t v⁺ (K with the (h² + hβ) folded in)
@@ -253,10 +318,7 @@ bool energy_bounded(const Sheet& sheet, ImplicitSolver& s, const ImplicitParams&
       quad /= kscale;
       double work = 0;
       for (int a = 0; a < 3; ++a) work += T.corner_force[t][a].dot(vn[c[a]]);
-      std::array<Vec3, 3>& xp = s.next_corners[t];
-      for (int a = 0; a < 3; ++a) xp[a] = V.x[c[a]] + h * vn[c[a]];
-      CorotatedFrame& frame = s.next_frame[t];
-      corotated_frame(xp[0], xp[1], xp[2], T.rest_inv[t], frame);
+      const CorotatedFrame& frame = s.next_frame[t];
       const Mat32& F = frame.F;
       const Mat32& R = frame.R;
       const double tr = (R.transpose() * F).trace() - 2;
@@ -343,17 +405,29 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
           const double tr = strain.trace();
           s.tri_energy[t] = mp.thickness * T.rest_area[t] * (mp.mu * (F - R).squaredNorm() + 0.5 * mp.lambda * tr * tr);
         }
-        Vec3 rg[3];
-        for (int a = 0; a < 3; ++a) rg[a] = R * g[a];
-        // In-plane part + (g_aᵀ Σ⁺ g_b)(I − RRᵀ), with I − RRᵀ expanded.
+        Vec3 rg[3], lambda_rg[3], twist_rg[3];
+        for (int a = 0; a < 3; ++a) {
+          rg[a] = R * g[a];
+          lambda_rg[a] = mp.lambda * rg[a];
+          twist_rg[a] = ((1 - kappa) * mp.mu) * rg[a];
+        }
+        // In-plane part + (g_aᵀ Σ⁺ g_b)(I − RRᵀ), with I − RRᵀ expanded. Entry by entry in scalars, in the
+        // order of the earlier Eigen form (s RRᵀ + (λ R g_a)(R g_b)ᵀ + ((1 − κ)μ R g_b)(R g_a)ᵀ + diagonal,
+        // then the scale, bit for bit): that form mixed 2-lane and scalar stores of one 3x3 temporary and
+        // stalled on store forwarding (a quarter of the frame's time went to this loop).
         for (int k = 0; k < 6; ++k) {
           const int a = kPairA[k], b = kPairB[k];
           const double geometric = g[a].dot(tension * g[b]);
-          Mat3 block = ((1 + kappa) * mp.mu * g[a].dot(g[b]) - geometric) * in_plane;
-          block.noalias() += mp.lambda * rg[a] * rg[b].transpose();
-          block.noalias() += ((1 - kappa) * mp.mu) * rg[b] * rg[a].transpose();
-          block.diagonal().array() += geometric;
-          s.tri_k[t][k] = ea * block;
+          const double spin = (1 + kappa) * mp.mu * g[a].dot(g[b]) - geometric;
+          Mat3& out = s.tri_k[t][k];
+          for (int col = 0; col < 3; ++col)
+            for (int row = 0; row < 3; ++row) {
+              double e = spin * in_plane(row, col);
+              e += lambda_rg[a][row] * rg[b][col];
+              e += twist_rg[b][row] * rg[a][col];
+              if (row == col) e += geometric;
+              out(row, col) = ea * e;
+            }
         }
       }
     });
@@ -380,21 +454,20 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
       if (i < 0) continue;
       s.rhs.segment<3>(3 * i) = V.mass[v] * V.v[v] + h * (V.force[v] + V.mass[v] * params.gravity);
     }
-    for (int32_t t = 0; t < nt; ++t) {
+    for (int32_t t = 0; t < nt; ++t)
       for (int k = 0; k < 6; ++k) {
-        const int a = kPairA[k], b = kPairB[k];
-        const Mat3& kab = s.tri_k[t][k];
-        const int32_t va = T.tri[t][a], vb = T.tri[t][b];
-        const int32_t ia = s.free_index[va], ib = s.free_index[vb];
-        const int32_t blk_ab = s.tri_block[t][3 * a + b];
-        if (blk_ab >= 0) values[blk_ab] += kab;
-        if (a != b) {
-          const int32_t blk_ba = s.tri_block[t][3 * b + a];
-          if (blk_ba >= 0) values[blk_ba] += kab.transpose();
-          if (ia >= 0 && ib < 0) s.rhs.segment<3>(3 * ia) -= kab * vnext[vb];
-          if (ib >= 0 && ia < 0) s.rhs.segment<3>(3 * ib) -= kab.transpose() * vnext[va];
-        }
+        const int32_t dest = s.tri_dest[t][k];
+        if (dest >= 0)
+          values[dest] += s.tri_k[t][k];
+        else if (dest < -1)
+          values[-2 - dest] += s.tri_k[t][k].transpose();
       }
+    for (const ImplicitSolver::HeldStiffness& c : s.stiffness_held) {
+      const Mat3& kab = s.tri_k[c.triangle][c.pair];
+      if (c.transpose)
+        s.rhs.segment<3>(3 * c.row) -= kab.transpose() * vnext[c.held_vertex];
+      else
+        s.rhs.segment<3>(3 * c.row) -= kab * vnext[c.held_vertex];
     }
     for (const ImplicitSolver::HeldCoupling& c : s.bending_held)
       s.rhs.segment<3>(3 * c.row) -= c.weight * vnext[c.held_vertex];

@@ -66,7 +66,7 @@ struct ImplicitSolverDeleter {
 using ImplicitSolverPtr = std::unique_ptr<ImplicitSolver, ImplicitSolverDeleter>;
 
 struct ImplicitStats {
-  int64_t analyses = 0;        // symbolic factorisations (topology or held set changed)
+  int64_t analyses = 0;        // symbolic factorisations (the block pattern changed with the topology or held set)
   int64_t factorizations = 0;  // numeric factorisations (one per substep)
   int64_t failures = 0;        // substeps rejected (the state was left unchanged)
   int64_t brakes = 0;          // substeps redone with the spin brake (energy check failed)
