@@ -227,7 +227,9 @@ TEST(ImplicitIntegrator, SliverDoesNotFreezeTheSheet) {
     for (const Vec3& x : s.verts.x) ASSERT_TRUE(x.allFinite());
     const ImplicitStats& st = implicit_solver_stats(*solver);
     EXPECT_EQ(st.failures, 0);
-    if (s_edge <= 1e-10) EXPECT_GT(st.regularised, 0) << "the shifted retry is what this case exercises";
+    if (s_edge <= 1e-10) {
+      EXPECT_GT(st.regularised, 0) << "the shifted retry is what this case exercises";
+    }
     std::printf("split at %g: sliver mass %.3g kg, %lld regularised solves of %lld\n", s_edge, s.verts.mass[w],
                 static_cast<long long>(st.regularised), static_cast<long long>(st.factorizations));
   }
