@@ -54,13 +54,12 @@ void BM_Pick(benchmark::State& state) {
 }
 BENCHMARK(BM_Pick)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
-// What a click costs in the viewer: the sheet moved since the last pick (a step ran), so the picker
-// refits its scene to the new positions, then casts the ray.
-void BM_PickAfterStep(benchmark::State& state) {
-  const Sheet a = wavy_sheet(static_cast<int32_t>(state.range(0)), 0.0);
-  const Sheet b = wavy_sheet(static_cast<int32_t>(state.range(0)), 0.3);
+// Alternates the picker's scene between sheets a and b before each pick: what a click costs when the
+// sheet changed since the last one.
+void pick_after_each_update(benchmark::State& state, const Sheet& a, const Sheet& b) {
   Picker picker;
   picker.update(a);
+  const int64_t rebuilds_before = picker.rebuilds();
   const auto rays = grid_rays();
   size_t k = 0, hits = 0;
   for (auto _ : state) {
@@ -72,29 +71,24 @@ void BM_PickAfterStep(benchmark::State& state) {
   }
   state.counters["triangles"] = a.tris.size();
   state.counters["hit_fraction"] = static_cast<double>(hits) / std::max<size_t>(1, k);
-  state.counters["rebuilds"] = static_cast<double>(picker.rebuilds());  // 1: the first update only
+  state.counters["rebuilds_per_pick"] =
+      static_cast<double>(picker.rebuilds() - rebuilds_before) / std::max<size_t>(1, k);
+}
+
+// A click after a step: the sheet moved, so the picker refits its scene to the new positions.
+void BM_PickAfterStep(benchmark::State& state) {
+  const int32_t n = static_cast<int32_t>(state.range(0));
+  pick_after_each_update(state, wavy_sheet(n, 0.0), wavy_sheet(n, 0.3));
 }
 BENCHMARK(BM_PickAfterStep)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
-// A click after a cut: the topology changed since the last pick, so the picker rebuilds its scene.
+// A click after a cut: the topology changed, so the picker rebuilds its scene.
 void BM_PickAfterCut(benchmark::State& state) {
-  const Sheet a = wavy_sheet(static_cast<int32_t>(state.range(0)), 0.0);
-  Sheet b = wavy_sheet(static_cast<int32_t>(state.range(0)), 0.3);
+  const int32_t n = static_cast<int32_t>(state.range(0));
+  const Sheet a = wavy_sheet(n, 0.0);
+  Sheet b = wavy_sheet(n, 0.3);
   b.topology_version = a.topology_version + 1;
-  Picker picker;
-  picker.update(a);
-  const auto rays = grid_rays();
-  size_t k = 0, hits = 0;
-  for (auto _ : state) {
-    picker.update(k % 2 ? a : b);
-    const auto& [o, d] = rays[k++ % rays.size()];
-    const auto hit = picker.pick(o, d);
-    hits += hit.has_value();
-    benchmark::DoNotOptimize(hit);
-  }
-  state.counters["triangles"] = a.tris.size();
-  state.counters["hit_fraction"] = static_cast<double>(hits) / std::max<size_t>(1, k);
-  state.counters["rebuilds_per_pick"] = static_cast<double>(picker.rebuilds() - 1) / std::max<size_t>(1, k);
+  pick_after_each_update(state, a, b);
 }
 BENCHMARK(BM_PickAfterCut)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
