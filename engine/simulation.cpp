@@ -31,6 +31,7 @@
 #include <cmath>
 #include <cstring>
 #include <set>
+#include <stdexcept>
 
 namespace pt {
 
@@ -519,6 +520,24 @@ void Simulation::move_finger(int32_t finger, const Vec3& target) {
   const double t = impl_->time_at(impl_->frame + 1);
   if (!f.keys.empty() && f.keys.back().t >= t) f.keys.back().position = target;
   else f.keys.push_back(FingerKey{t, target});
+}
+
+void Simulation::set_propagation_speed(double speed, double max_step) {
+  if (!(speed >= 0) || !(max_step > 0) || !std::isfinite(speed) || !std::isfinite(max_step))
+    throw std::invalid_argument("propagation speed must be >= 0 and the step cap > 0, both finite");
+  Impl& m = *impl_;
+  m.sheet.material.speed = speed;
+  m.sheet.material.max_step = max_step;
+  m.propagation_params.speed = speed;
+  m.propagation_params.max_step = max_step;
+  m.propagation_params.min_step = std::min(m.sheet.material.min_step, max_step);
+}
+
+void Simulation::set_detail_noise(double sigma, double omega) {
+  if (!(sigma >= 0) || !std::isfinite(sigma) || !(omega >= 0 && omega <= 1))
+    throw std::invalid_argument("detail sigma must be >= 0 and finite, omega in [0, 1]");
+  impl_->detail.sigma = sigma;
+  impl_->detail.omega = omega;
 }
 
 void Simulation::release_finger(int32_t finger) {

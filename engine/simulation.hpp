@@ -122,6 +122,12 @@ class Simulation {
   // The finger reaches `target` at the end of the next frame (a key at that time).
   void move_finger(int32_t finger, const Vec3& target);
   void release_finger(int32_t finger);
+  // Parameters a running simulation takes from its next frame on (the viewer's live panel): the
+  // propagation speed k and step cap of p_next = p + k·Er·t (paper §5.2, DESIGN §5.4), and the detail
+  // noise σ, ω of the segments carved from now on (paper §6). Invalid values (negative k, a cap that is
+  // not positive, σ < 0, ω outside [0, 1], NaN) are refused with std::invalid_argument.
+  void set_propagation_speed(double speed, double max_step);
+  void set_detail_noise(double sigma, double omega);
 
  private:
   struct Impl;

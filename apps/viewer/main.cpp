@@ -244,8 +244,9 @@ struct App {
   std::string status;
   double status_until = 0;
   bool pending_reset_params = false;
-  // Parameters that take effect on Reset (the engine copies them when it builds a sheet).
-  double thickness = 1e-4, speed = 2e-7, max_step = 0.01, sigma = 1e-4, omega = 0.5;
+  // The thickness takes effect on Reset: it sets the masses and the stiffness of the factorised system,
+  // which the engine builds with the sheet. The other parameters are live (edits).
+  double thickness = 1e-4;
 
   void say(const std::string& s) {
     status = s;
@@ -255,19 +256,20 @@ struct App {
 
   void reset() {
     sync();
+    // The sheet starts again with the panel's values, the live ones included.
     scenario.material.thickness = thickness;
-    scenario.material.speed = speed;
-    scenario.material.max_step = max_step;
-    scenario.detail.sigma = sigma;
-    scenario.detail.omega = omega;
+    scenario.material.fracture_c = edits.fracture_c;
+    scenario.material.tip_damage = edits.tip_damage;
+    scenario.material.speed = edits.speed;
+    scenario.material.max_step = edits.max_step;
+    scenario.detail.sigma = edits.sigma;
+    scenario.detail.omega = edits.omega;
     EngineOptions eo;
     eo.threads = opt.threads;
     sim = std::make_unique<Simulation>(scenario, eo);
     renderer.load_sheet(*sim);
     picker.update(sim->sheet());
-    edits = QueuedEdits{};
-    edits.fracture_c = sim->sheet().material.fracture_c;
-    edits.tip_damage = sim->sheet().material.tip_damage;
+    edits = live_parameters_of(*sim);
     finished_steps.clear();
     capture_view();
     selected.clear();
@@ -280,10 +282,13 @@ struct App {
 
   void take_parameters_from_scenario() {
     thickness = scenario.material.thickness;
-    speed = scenario.material.speed;
-    max_step = scenario.material.max_step;
-    sigma = scenario.detail.sigma;
-    omega = scenario.detail.omega;
+    edits = QueuedEdits{};
+    edits.fracture_c = scenario.material.fracture_c;
+    edits.tip_damage = scenario.material.tip_damage;
+    edits.speed = scenario.material.speed;
+    edits.max_step = scenario.material.max_step;
+    edits.sigma = scenario.detail.sigma;
+    edits.omega = scenario.detail.omega;
     std::string base = scenario.name.empty() ? "session" : scenario.name;
     std::snprintf(record_path, sizeof record_path, "%s-session.json", base.c_str());
   }
@@ -635,27 +640,31 @@ struct App {
     ImGui::Checkbox("pattern", &show_pattern);
 
     if (ImGui::CollapsingHeader("Material and tearing", ImGuiTreeNodeFlags_DefaultOpen)) {
-      ImGui::TextDisabled("live:");
+      ImGui::TextDisabled("live (from the next frame):");
+      const double zero = 0, one = 1, s_lo = 1e-9, s_hi = 1e-5, m_lo = 1e-4, m_hi = 0.05, sg_lo = 1e-5, sg_hi = 2e-3;
       edits.material_edited |= ImGui::DragScalar("fracture c (J/m2)", ImGuiDataType_Double, &edits.fracture_c, 50.0f);
       edits.fracture_c = std::max(1.0, edits.fracture_c);
-      const double zero = 0, one = 1;
       edits.material_edited |=
           ImGui::SliderScalar("tip damage D", ImGuiDataType_Double, &edits.tip_damage, &zero, &one, "%.3f");
+      edits.propagation_edited |= ImGui::SliderScalar("speed k", ImGuiDataType_Double, &edits.speed, &s_lo, &s_hi,
+                                                      "%.2e", ImGuiSliderFlags_Logarithmic);
+      edits.propagation_edited |= ImGui::SliderScalar("max step (m)", ImGuiDataType_Double, &edits.max_step, &m_lo,
+                                                      &m_hi, "%.4f", ImGuiSliderFlags_Logarithmic);
+      edits.detail_edited |= ImGui::SliderScalar("sigma (m)", ImGuiDataType_Double, &edits.sigma, &sg_lo, &sg_hi,
+                                                 "%.2e", ImGuiSliderFlags_Logarithmic);
+      edits.detail_edited |= ImGui::SliderScalar("omega", ImGuiDataType_Double, &edits.omega, &zero, &one, "%.3f");
+      // Sliders clamp what is dragged, not what is typed (Ctrl+click): keep the engine's ranges.
+      edits.speed = std::clamp(edits.speed, 0.0, 1.0);
+      edits.max_step = std::clamp(edits.max_step, m_lo, 1.0);
+      edits.sigma = std::clamp(edits.sigma, 0.0, 1.0);
+      edits.omega = std::clamp(edits.omega, 0.0, 1.0);
       ImGui::TextDisabled("applied on Reset:");
-      bool changed = false;
-      const double t_lo = 2e-5, t_hi = 1e-3, s_lo = 1e-9, s_hi = 1e-5, m_lo = 1e-4, m_hi = 0.05, sg_lo = 1e-5,
-                   sg_hi = 2e-3;
-      changed |= ImGui::SliderScalar("thickness e (m)", ImGuiDataType_Double, &thickness, &t_lo, &t_hi, "%.2e",
-                                     ImGuiSliderFlags_Logarithmic);
-      changed |= ImGui::SliderScalar("speed k", ImGuiDataType_Double, &speed, &s_lo, &s_hi, "%.2e",
-                                     ImGuiSliderFlags_Logarithmic);
-      changed |= ImGui::SliderScalar("max step (m)", ImGuiDataType_Double, &max_step, &m_lo, &m_hi, "%.4f",
-                                     ImGuiSliderFlags_Logarithmic);
-      changed |= ImGui::SliderScalar("sigma (m)", ImGuiDataType_Double, &sigma, &sg_lo, &sg_hi, "%.2e",
-                                     ImGuiSliderFlags_Logarithmic);
-      changed |= ImGui::SliderScalar("omega", ImGuiDataType_Double, &omega, &zero, &one, "%.3f");
-      if (changed) pending_reset_params = true;
-      if (pending_reset_params) ImGui::TextColored(ImVec4(1, 0.7f, 0.2f, 1), "Reset (R) to apply e, k, max step, sigma, omega");
+      const double t_lo = 2e-5, t_hi = 1e-3;
+      if (ImGui::SliderScalar("thickness e (m)", ImGuiDataType_Double, &thickness, &t_lo, &t_hi, "%.2e",
+                              ImGuiSliderFlags_Logarithmic))
+        pending_reset_params = true;
+      if (pending_reset_params) ImGui::TextColored(ImVec4(1, 0.7f, 0.2f, 1), "Reset (R) to apply the thickness e");
+      ImGui::TextDisabled("recording saves the current values");
     }
 
     if (ImGui::CollapsingHeader("Timings (ms, Table 1 groups)", ImGuiTreeNodeFlags_DefaultOpen)) {

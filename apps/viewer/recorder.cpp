@@ -50,7 +50,8 @@ json session_json(const Simulation& sim, const std::string& name) {
                    {"tip_damage", m.tip_damage}, {"fiber_seed", m.fiber_seed},   {"fiber_scale", m.fiber_scale},
                    {"fracture_c", m.fracture_c}, {"speed", m.speed},             {"max_step", m.max_step}};
 
-  json d = {{"sigma", sc.detail.sigma}, {"omega", sc.detail.omega}};
+  // The detail noise as the simulation has it now (the viewer sets it live).
+  json d = {{"sigma", sim.detail_params().sigma}, {"omega", sim.detail_params().omega}};
   if (sc.detail.texture[0] > 0 && sc.detail.texture[1] > 0)
     d["texture"] = json::array({sc.detail.texture[0], sc.detail.texture[1]});
   j["detail"] = d;

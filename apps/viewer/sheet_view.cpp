@@ -49,6 +49,26 @@ void apply_queued_edits(QueuedEdits& edits, Simulation& sim) {
     sim.mutable_sheet().material.tip_damage = edits.tip_damage;
     edits.material_edited = false;
   }
+  if (edits.propagation_edited) {
+    sim.set_propagation_speed(edits.speed, edits.max_step);
+    edits.propagation_edited = false;
+  }
+  if (edits.detail_edited) {
+    sim.set_detail_noise(edits.sigma, edits.omega);
+    edits.detail_edited = false;
+  }
+}
+
+QueuedEdits live_parameters_of(const Simulation& sim) {
+  QueuedEdits e;
+  const Material& m = sim.sheet().material;
+  e.fracture_c = m.fracture_c;
+  e.tip_damage = m.tip_damage;
+  e.speed = m.speed;
+  e.max_step = m.max_step;
+  e.sigma = sim.detail_params().sigma;
+  e.omega = sim.detail_params().omega;
+  return e;
 }
 
 }  // namespace pt::viewer

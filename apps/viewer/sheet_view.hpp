@@ -31,13 +31,19 @@ struct SheetView {
 };
 
 // Edits made while a step ran. Finger moves keep only the last target per finger, as
-// Simulation::move_finger does for targets set before one step; the live material parameters are the
-// panel's copy.
+// Simulation::move_finger does for targets set before one step; the live parameters are the panel's copy
+// (fracture constant c and tip damage D, propagation speed k and step cap, detail noise σ and ω), each
+// group written when it was edited.
 struct QueuedEdits {
   std::vector<std::pair<int32_t, Vec3>> moves;
-  bool material_edited = false;
+  bool material_edited = false, propagation_edited = false, detail_edited = false;
   double fracture_c = 0, tip_damage = 0;
+  double speed = 0, max_step = 0;
+  double sigma = 0, omega = 0;
 };
+
+// The live parameters as the simulation has them now (nothing marked edited).
+QueuedEdits live_parameters_of(const Simulation& sim);
 
 // Copies what the frame reads; queued moves show as the fingers' goals.
 void capture_sheet_view(const Simulation& sim, const QueuedEdits& edits, SheetView& view);

@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <stdexcept>
 #include <string>
 
 namespace pt::viewer {
@@ -108,6 +110,53 @@ TEST(SheetView, LiveMaterialIsWrittenWithTheEdits) {
   EXPECT_EQ(sim.sheet().material.fracture_c, 1234.0);
   EXPECT_EQ(sim.sheet().material.tip_damage, 0.4);
   EXPECT_FALSE(edits.material_edited);
+}
+
+// Setting k, the step cap, σ and ω on a running simulation before its first frame gives the very run of
+// a scenario that has those values: the setters do what the scenario's values do, from the next frame.
+TEST(SheetView, LiveTearingAndDetailParametersActLikeTheScenarioValues) {
+  const Scenario base = load_scenario(std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json");
+  Scenario changed = base;
+  changed.material.speed = 2.5 * base.material.speed;
+  changed.material.max_step = 0.6 * base.material.max_step;
+  changed.detail.sigma = 3 * base.detail.sigma;
+  changed.detail.omega = 0.25;
+  Simulation from_file(changed), live(base);
+  QueuedEdits edits = live_parameters_of(live);
+  EXPECT_EQ(edits.speed, base.material.speed);
+  EXPECT_EQ(edits.sigma, live.detail_params().sigma);
+  edits.speed = changed.material.speed;
+  edits.max_step = changed.material.max_step;
+  edits.propagation_edited = true;
+  edits.sigma = changed.detail.sigma;
+  edits.omega = changed.detail.omega;
+  edits.detail_edited = true;
+  apply_queued_edits(edits, live);
+  EXPECT_FALSE(edits.propagation_edited || edits.detail_edited);
+  for (int f = 0; f < 60; ++f) {
+    from_file.step();
+    live.step();
+  }
+  from_file.flush();
+  live.flush();
+  EXPECT_GT(live.sheet().tears.size(), 0u);
+  EXPECT_EQ(live.state_hash(), from_file.state_hash());
+  EXPECT_EQ(live.carve_state().carved_segments, from_file.carve_state().carved_segments);
+  // And they differ from the unchanged run (the test can fail).
+  Simulation unchanged(base);
+  for (int f = 0; f < 60; ++f) unchanged.step();
+  EXPECT_NE(unchanged.state_hash(), live.state_hash());
+}
+
+TEST(SheetView, LiveParametersRefuseInvalidValues) {
+  Simulation sim(notched_sheet_without_fingers());
+  EXPECT_THROW(sim.set_propagation_speed(-1.0, 0.01), std::invalid_argument);
+  EXPECT_THROW(sim.set_propagation_speed(1e-7, 0.0), std::invalid_argument);
+  EXPECT_THROW(sim.set_propagation_speed(std::nan(""), 0.01), std::invalid_argument);
+  EXPECT_THROW(sim.set_detail_noise(-1e-4, 0.5), std::invalid_argument);
+  EXPECT_THROW(sim.set_detail_noise(1e-4, 1.5), std::invalid_argument);
+  const double speed = sim.sheet().material.speed;
+  EXPECT_EQ(sim.sheet().material.speed, speed) << "a refused value changes nothing";
 }
 
 }  // namespace
