@@ -108,7 +108,8 @@ size_t implicit_solver_bytes(const ImplicitSolver& s) {
          capacity_bytes(s.block_column) + capacity_bytes(s.block_values) + capacity_bytes(s.tri_block) +
          capacity_bytes(s.tri_dest) + capacity_bytes(s.stiffness_held) +
          capacity_bytes(s.stencils) + capacity_bytes(s.bending_held) + capacity_bytes(s.base_values) +
-         block_ldlt_bytes(s.ldlt) + capacity_bytes(s.analysed_keys) + capacity_bytes(s.analysed_rest) + capacity_bytes(s.tri_k) + capacity_bytes(s.tri_energy) +
+         block_ldlt_bytes(s.ldlt) + capacity_bytes(s.analysed_keys) + capacity_bytes(s.analysed_rest) +
+         capacity_bytes(s.tri_k) + capacity_bytes(s.tri_energy) +
          capacity_bytes(s.tri_check) + capacity_bytes(s.next_frame) + capacity_bytes(s.next_corners) +
          static_cast<size_t>(s.rhs.size() + s.solution.size()) * sizeof(double) + capacity_bytes(s.velocity_next) +
          capacity_bytes(s.row_start) + capacity_bytes(s.pair_row) + capacity_bytes(s.pair_column) +

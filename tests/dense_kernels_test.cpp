@@ -23,7 +23,8 @@ struct Strided {
   int32_t m, n;
   int64_t ld;
   std::vector<double> data;
-  Strided(int32_t rows, int32_t cols, int64_t lead, double guard) : m(rows), n(cols), ld(lead), data(lead * cols + 7, guard) {}
+  Strided(int32_t rows, int32_t cols, int64_t lead, double guard)
+      : m(rows), n(cols), ld(lead), data(lead * cols + 7, guard) {}
   double& operator()(int32_t i, int32_t j) { return data[i + j * ld]; }
   double operator()(int32_t i, int32_t j) const { return data[i + j * ld]; }
 };
@@ -48,7 +49,8 @@ void expect_guards(const Strided& a, double guard) {
 TEST(DenseKernels, ProductsMatchLoops) {
   std::mt19937 rng(7);
   for (const DenseKernels* kern : builds())
-    for (const auto [m, n, k] : {std::array{3, 3, 3}, std::array{12, 9, 6}, std::array{37, 21, 48}, std::array{96, 60, 33}}) {
+    for (const auto [m, n, k] :
+         {std::array{3, 3, 3}, std::array{12, 9, 6}, std::array{37, 21, 48}, std::array{96, 60, 33}}) {
       const Strided a = random_matrix(m, k, rng), b = random_matrix(n, k, rng);
       Strided c(m, n, m + 3, -7.0);
       kern->gemm_nt(m, n, k, a.data.data(), a.ld, b.data.data(), b.ld, c.data.data(), c.ld);
