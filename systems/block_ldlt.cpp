@@ -281,14 +281,20 @@ void split_into_subtrees(const std::vector<int32_t>& parent, const std::vector<d
 // then loses cond(D_i)·ε of its O(1) size — enough to make a later Schur complement of size 10⁻⁷ negative
 // (measured: Fig. 16 on mesh 3 refused 1 103 of its 1 500 substeps although the matrix's smallest
 // eigenvalue was 8·10⁻⁸). X_i = C_i⁻¹ Y_i and the Gram update X_iᵀ X_i lose only about ε·‖X_i‖².
+static_assert(sizeof(Mat3) == 9 * sizeof(double), "the dense kernels read 3x3 blocks as 9 packed doubles");
+
 bool factor_column(const std::vector<Mat3>& values, int32_t k, std::vector<Mat3>& y, ColumnFactor& s) {
+  const DenseKernels& kernels = dense_kernels();
   for (int32_t q = s.column_start[k]; q < s.column_start[k + 1]; ++q) y[s.column_row[q]] = values[s.column_key[q]];
   Mat3 d = values[s.diagonal_key[k]];
   for (int32_t t = s.pattern_start[k]; t < s.pattern_start[k + 1]; ++t) {
     const int32_t i = s.pattern_column[t], slot = s.pattern_slot[t];
     const Mat3 xi = s.c_inverse[i] * y[i];  // X_i = C_i⁻¹ Y_i; L(k, i) = X_iᵀ
     y[i].setZero();
-    for (int32_t p = s.l_start[i]; p < slot; ++p) y[s.l_row[p]].noalias() -= s.l_blocks[p] * xi;
+    // y[row] −= L(row, i) X_i over the entries of column i above the slot (the dense kernels' build).
+    const int32_t p0 = s.l_start[i];
+    if (slot > p0)
+      kernels.subtract_block_products(slot - p0, s.l_row.data() + p0, s.l_blocks[p0].data(), xi.data(), y[0].data());
     d.noalias() -= xi.transpose() * xi;
     s.l_blocks[slot] = xi.transpose();
   }

@@ -1,6 +1,6 @@
-// Dense kernels of the supernodal factorisation (systems/block_ldlt.cpp): the panel products, the
-// diagonal block's Cholesky and the triangular solve below it, on column-major matrices given by
-// pointer and leading dimension. They are most of a big sheet's factorisation (a 10 000-triangle sheet:
+// Dense kernels of the block factorisations (systems/block_ldlt.cpp): the supernodal path's panel
+// products, diagonal block Cholesky and triangular solve below it, on column-major matrices given by
+// pointer and leading dimension, and the column path's 3 × 3 block update. They are most of a big sheet's factorisation (a 10 000-triangle sheet:
 // 0.57 GFlop per factorisation), and Debian builds for the x86-64 baseline, whose SSE2 kernels reach
 // 6–7 GFlop/s per core on this machine. So there are two builds, chosen once per process by what the CPU
 // supports: the baseline one (Eigen, dense_kernels_impl.inc) and one compiled for AVX2 + FMA
@@ -25,6 +25,10 @@ struct DenseKernels {
   bool (*llt_lower)(int32_t n, double* a, int64_t lda);
   // In place: B = B L⁻ᵀ, L the lower triangle of an n × n matrix, B m × n.
   void (*solve_right_lower_transposed)(int32_t m, int32_t n, const double* l, int64_t ldl, double* b, int64_t ldb);
+  // The column factorisation's inner update (block_ldlt.cpp, factor_column): y[rows[q]] −= blocks[q] · x for
+  // q < count, every matrix a 3 × 3 block of 9 column-major doubles. Most of a ~1 000-triangle frame.
+  void (*subtract_block_products)(int32_t count, const int32_t* rows, const double* blocks, const double* x,
+                                  double* y);
 };
 
 // The kernels this process uses: the AVX2 + FMA build when the CPU has both and the build has it, unless

@@ -137,6 +137,35 @@ void solve_right_lower_transposed_fma(int32_t m, int32_t n, const double* l, int
   if (i < m) solve_rows<1, true>(i, n, l, ldl, b, ldb, first_lanes(m - i));
 }
 
+// y[rows[q]] −= blocks[q] · x, each column of the result one vector: y_j − L₀ x₀ⱼ − L₁ x₁ⱼ − L₂ x₂ⱼ by three
+// fused multiply-subtracts (the four lanes hold a column's three rows and one spare). A block's last
+// column is read with a mask (the array may end there); the new columns are stored in order, the first
+// two as whole vectors, whose spare lane lands on the next column and is overwritten by its store, the
+// last by halves so nothing past the block is written.
+void subtract_block_products_fma(int32_t count, const int32_t* rows, const double* blocks, const double* x,
+                                 double* y) {
+  const __m256i three = first_lanes(3);
+  __m256d xb[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) xb[r][c] = _mm256_broadcast_sd(x + r + 3 * c);
+  for (int32_t q = 0; q < count; ++q) {
+    const double* l = blocks + 9 * static_cast<int64_t>(q);
+    double* yb = y + 9 * static_cast<int64_t>(rows[q]);
+    const __m256d l0 = _mm256_loadu_pd(l), l1 = _mm256_loadu_pd(l + 3), l2 = _mm256_maskload_pd(l + 6, three);
+    __m256d out[3];
+    for (int c = 0; c < 3; ++c) {
+      __m256d v = c < 2 ? _mm256_loadu_pd(yb + 3 * c) : _mm256_maskload_pd(yb + 6, three);
+      v = _mm256_fnmadd_pd(l0, xb[0][c], v);
+      v = _mm256_fnmadd_pd(l1, xb[1][c], v);
+      out[c] = _mm256_fnmadd_pd(l2, xb[2][c], v);
+    }
+    _mm256_storeu_pd(yb, out[0]);
+    _mm256_storeu_pd(yb + 3, out[1]);
+    _mm_storeu_pd(yb + 6, _mm256_castpd256_pd128(out[2]));
+    _mm_store_sd(yb + 8, _mm256_extractf128_pd(out[2], 1));
+  }
+}
+
 }  // namespace
 
 // The Cholesky of a diagonal block stays Eigen's (one call per supernode, whatever the chunks).
@@ -145,6 +174,7 @@ void fill_fma(DenseKernels& k) {
   k.syrk_lower = syrk_lower_fma;
   k.gemm_nt = gemm_nt_fma;
   k.solve_right_lower_transposed = solve_right_lower_transposed_fma;
+  k.subtract_block_products = subtract_block_products_fma;
 }
 
 }  // namespace pt::dense::avx2

@@ -119,6 +119,35 @@ TEST(DenseKernels, CholeskyAndSolveMatchLoops) {
     }
 }
 
+// The column factorisation's update: y[rows[q]] −= blocks[q] · x on 3 × 3 blocks, rows in any order and
+// repeated, the arrays ending right after their last block (a kernel must not read or write past them:
+// the blocks are copied into an exact-size vector, and y has a guard block after it).
+TEST(DenseKernels, BlockProductsSubtractedMatchLoops) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (const DenseKernels* kern : builds())
+    for (const int32_t count : {1, 2, 7, 40}) {
+      std::vector<int32_t> rows(count);
+      for (int32_t q = 0; q < count; ++q) rows[q] = (7 * q + 3) % 5;  // five target blocks, hit repeatedly
+      std::vector<double> blocks(9 * count), x(9), y(9 * 6);
+      for (double& v : blocks) v = u(rng);
+      for (double& v : x) v = u(rng);
+      for (double& v : y) v = u(rng);
+      const std::vector<double> y0 = y;
+      kern->subtract_block_products(count, rows.data(), blocks.data(), x.data(), y.data());
+      std::vector<double> expect = y0;
+      for (int32_t q = 0; q < count; ++q)
+        for (int c = 0; c < 3; ++c)
+          for (int r = 0; r < 3; ++r) {
+            double s = 0;
+            for (int k = 0; k < 3; ++k) s += blocks[9 * q + r + 3 * k] * x[k + 3 * c];
+            expect[9 * rows[q] + r + 3 * c] -= s;
+          }
+      for (int e = 0; e < 45; ++e) ASSERT_NEAR(y[e], expect[e], 1e-12 * count) << kern->name << " entry " << e;
+      for (int e = 45; e < 54; ++e) ASSERT_EQ(y[e], y0[e]) << kern->name << " wrote into the guard block";
+    }
+}
+
 TEST(DenseKernels, CholeskyRefusesWhatIsNotPositiveDefinite) {
   for (const DenseKernels* kern : builds()) {
     Strided a(3, 3, 3, 0.0);
