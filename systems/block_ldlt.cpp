@@ -371,6 +371,7 @@ void update_chunk(const std::vector<Mat3>& values, int32_t s, int32_t c, const s
   for (int32_t e = f.assembly_start[c]; e < f.assembly_start[c + 1]; ++e)
     PanelBlock(panel + f.assembly_offset[e], 3, 3, Eigen::OuterStride<>(ld)) = values[f.assembly_key[e]];
   const bool whole = r0 == 0 && r1 == rows;
+  const DenseKernels& kernels = dense_kernels();
   const int32_t* s_rows = f.super_row.data() + f.row_start[s];
   for (int32_t u = f.update_start[s]; u < f.update_start[s + 1]; ++u) {
     const int32_t d = f.update_source[u], first = f.update_first[u], last = f.update_last[u];
@@ -392,7 +393,6 @@ void update_chunk(const std::vector<Mat3>& values, int32_t s, int32_t c, const s
     Panel cp(product.data(), 3 * m, 3 * k);
     // With the whole diagonal part in the chunk, only its lower triangle is computed (rows of s's own
     // columns: the upper one is never read), the rows below by a general product.
-    const DenseKernels& kernels = dense_kernels();
     const bool triangle = a0 == first && a1 >= last;
     if (triangle) {
       kernels.syrk_lower(3 * k, width, rows_of(first), d_ld, cp.data(), 3 * m);

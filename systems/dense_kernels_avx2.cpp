@@ -170,7 +170,7 @@ void subtract_block_products_fma(int32_t count, const int32_t* rows, const doubl
 
 // The Cholesky of a diagonal block stays Eigen's (one call per supernode, whatever the chunks).
 void fill_fma(DenseKernels& k) {
-  fill(k);
+  k.llt_lower = llt_lower;
   k.syrk_lower = syrk_lower_fma;
   k.gemm_nt = gemm_nt_fma;
   k.solve_right_lower_transposed = solve_right_lower_transposed_fma;

@@ -258,18 +258,13 @@ struct App {
     sync();
     // The sheet starts again with the panel's values, the live ones included.
     scenario.material.thickness = thickness;
-    scenario.material.fracture_c = edits.fracture_c;
-    scenario.material.tip_damage = edits.tip_damage;
-    scenario.material.speed = edits.speed;
-    scenario.material.max_step = edits.max_step;
-    scenario.detail.sigma = edits.sigma;
-    scenario.detail.omega = edits.omega;
+    write_live_parameters(edits, scenario);
     EngineOptions eo;
     eo.threads = opt.threads;
     sim = std::make_unique<Simulation>(scenario, eo);
     renderer.load_sheet(*sim);
     picker.update(sim->sheet());
-    edits = live_parameters_of(*sim);
+    edits = live_parameters_of(scenario);  // the same values, nothing queued
     finished_steps.clear();
     capture_view();
     selected.clear();
@@ -282,13 +277,7 @@ struct App {
 
   void take_parameters_from_scenario() {
     thickness = scenario.material.thickness;
-    edits = QueuedEdits{};
-    edits.fracture_c = scenario.material.fracture_c;
-    edits.tip_damage = scenario.material.tip_damage;
-    edits.speed = scenario.material.speed;
-    edits.max_step = scenario.material.max_step;
-    edits.sigma = scenario.detail.sigma;
-    edits.omega = scenario.detail.omega;
+    edits = live_parameters_of(scenario);
     std::string base = scenario.name.empty() ? "session" : scenario.name;
     std::snprintf(record_path, sizeof record_path, "%s-session.json", base.c_str());
   }
@@ -488,8 +477,7 @@ struct App {
       say(std::string("not loaded: ") + e.what());
       return;
     }
-    sync();
-    scenario = std::move(loaded);
+    scenario = std::move(loaded);  // the step running, if any, reads its own copy (reset waits for it)
     take_parameters_from_scenario();
     reset();
     camera.frame_sheet(sim->sheet(), scenario.sim.gravity);

@@ -59,16 +59,26 @@ void apply_queued_edits(QueuedEdits& edits, Simulation& sim) {
   }
 }
 
-QueuedEdits live_parameters_of(const Simulation& sim) {
+QueuedEdits live_parameters_of(const Scenario& scenario) {
   QueuedEdits e;
-  const Material& m = sim.sheet().material;
+  const Material& m = scenario.material;
   e.fracture_c = m.fracture_c;
   e.tip_damage = m.tip_damage;
   e.speed = m.speed;
   e.max_step = m.max_step;
-  e.sigma = sim.detail_params().sigma;
-  e.omega = sim.detail_params().omega;
+  e.sigma = scenario.detail.sigma;
+  e.omega = scenario.detail.omega;
   return e;
+}
+
+void write_live_parameters(const QueuedEdits& edits, Scenario& scenario) {
+  Material& m = scenario.material;
+  m.fracture_c = edits.fracture_c;
+  m.tip_damage = edits.tip_damage;
+  m.speed = edits.speed;
+  m.max_step = edits.max_step;
+  scenario.detail.sigma = edits.sigma;
+  scenario.detail.omega = edits.omega;
 }
 
 }  // namespace pt::viewer

@@ -42,8 +42,10 @@ struct QueuedEdits {
   double sigma = 0, omega = 0;
 };
 
-// The live parameters as the simulation has them now (nothing marked edited).
-QueuedEdits live_parameters_of(const Simulation& sim);
+// The live parameters of a scenario (nothing marked edited), and the same written back into one (the
+// viewer's Reset starts the sheet again with the panel's values).
+QueuedEdits live_parameters_of(const Scenario& scenario);
+void write_live_parameters(const QueuedEdits& edits, Scenario& scenario);
 
 // Copies what the frame reads; queued moves show as the fingers' goals.
 void capture_sheet_view(const Simulation& sim, const QueuedEdits& edits, SheetView& view);

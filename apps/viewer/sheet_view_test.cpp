@@ -122,7 +122,7 @@ TEST(SheetView, LiveTearingAndDetailParametersActLikeTheScenarioValues) {
   changed.detail.sigma = 3 * base.detail.sigma;
   changed.detail.omega = 0.25;
   Simulation from_file(changed), live(base);
-  QueuedEdits edits = live_parameters_of(live);
+  QueuedEdits edits = live_parameters_of(base);
   EXPECT_EQ(edits.speed, base.material.speed);
   EXPECT_EQ(edits.sigma, live.detail_params().sigma);
   edits.speed = changed.material.speed;
