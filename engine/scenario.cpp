@@ -62,7 +62,11 @@ std::string fmt(double v) {
   return buf;
 }
 
-std::string fmt_uv(const Vec2& p) { return "(" + fmt(p.x()) + ", " + fmt(p.y()) + ")"; }
+std::string fmt_uv(const Vec2& p) {
+  char buf[64];  // one snprintf: GCC 12 warns falsely (-Wrestrict) on "(" + std::string&& once this is inlined
+  std::snprintf(buf, sizeof buf, "(%.6g, %.6g)", p.x(), p.y());
+  return buf;
+}
 
 [[noreturn]] void fail(const std::string& file, const std::string& json_path, const std::string& problem) {
   if (json_path.empty()) throw InputError(one_line(file_label(file) + ": " + problem));
@@ -284,6 +288,15 @@ void read_sim(const Reader& r, const json& j, SimSettings& sim) {
   if (j.contains("iterations"))
     sim.iterations = static_cast<int32_t>(r.integer(j["iterations"], child(path, "iterations"), 1, kMaxIterations));
   if (j.contains("solver")) sim.solver = r.string(j["solver"], child(path, "solver"));
+}
+
+void read_tearing(const Reader& r, const json& j, TearingSettings& t) {
+  const std::string path = "tearing";
+  r.expect_object(j, path);
+  r.check_keys(j, path, {"direction", "radius", "snap"});
+  if (j.contains("direction")) t.direction = r.string(j["direction"], child(path, "direction"));
+  if (j.contains("radius")) t.radius = r.number(j["radius"], child(path, "radius"));
+  if (j.contains("snap")) t.snap = r.number(j["snap"], child(path, "snap"));
 }
 
 void read_fingers(const Reader& r, const json& j, std::vector<FingerSpec>& fingers) {
@@ -512,6 +525,14 @@ void validate_scenario(const Scenario& s) {
   if (s.sim.solver != "implicit" && s.sim.solver != "projective")
     fail(file, "sim.solver", "unknown solver \"" + s.sim.solver + "\" (implicit or projective)");
 
+  // Tearing.
+  if (s.tearing.direction != "bisector" && s.tearing.direction != "material_force")
+    fail(file, "tearing.direction", "unknown direction \"" + s.tearing.direction + "\" (bisector or material_force)");
+  check_positive(file, "tearing.radius", s.tearing.radius);
+  if (s.tearing.radius > kMaxCoordinate)
+    fail(file, "tearing.radius", "absurd size " + fmt(s.tearing.radius) + " (at most " + fmt(kMaxCoordinate) + ")");
+  if (s.tearing.snap) check_range(file, "tearing.snap", *s.tearing.snap, 0, 0.45, false);
+
   // Fingers. None is fine in code (a sheet falling freely); files must have some (parse_scenario).
   for (size_t i = 0; i < s.fingers.size(); ++i) {
     const FingerSpec& f = s.fingers[i];
@@ -580,7 +601,8 @@ Scenario parse_scenario(const std::string& json_text, const std::string& path_fo
   if (!root.is_object()) fail(file, "", std::string("expected a JSON object at the top level, got ") + type_name(root));
 
   const Reader r{file};
-  r.check_keys(root, "", {"name", "description", "version", "sheet", "material", "detail", "sim", "fingers", "hands"});
+  r.check_keys(root, "", {"name", "description", "version", "sheet", "material", "detail", "sim", "tearing", "fingers",
+                               "hands"});
 
   Scenario s;
   s.path = file;
@@ -600,6 +622,7 @@ Scenario parse_scenario(const std::string& json_text, const std::string& path_fo
   if (root.contains("material")) read_material(r, root["material"], s.material);
   if (root.contains("detail")) read_detail(r, root["detail"], s.detail);
   if (root.contains("sim")) read_sim(r, root["sim"], s.sim);
+  if (root.contains("tearing")) read_tearing(r, root["tearing"], s.tearing);
   if (!root.contains("fingers")) fail(file, "fingers", "missing (at least one finger is required)");
   read_fingers(r, root["fingers"], s.fingers);
   if (s.fingers.empty()) fail(file, "fingers", "at least one finger is required");

@@ -24,6 +24,15 @@ struct DetailSettings {
   double omega = 0.5;
 };
 
+// How a tear tip picks its direction, and how its cuts snap (the "tearing" object; optional).
+struct TearingSettings {
+  std::string direction = "bisector";  // "bisector": eq. 4–6 (DESIGN §5.4); "material_force": the J-integral's
+                                       // direction of largest energy release (systems/material_force.hpp)
+  double radius = 0.04;                // m, the J-integral's domain ("material_force" only)
+  std::optional<double> snap;          // remeshing's snap fraction (DESIGN §5.5); unset: the direction's default
+  double snap_fraction() const { return snap ? *snap : direction == "material_force" ? 0.06 : 0.25; }
+};
+
 struct SimSettings {
   double fps = 30;
   int32_t substeps = 10;
@@ -59,6 +68,7 @@ struct Scenario {
   Material material;
   DetailSettings detail;
   SimSettings sim;
+  TearingSettings tearing;
   std::vector<FingerSpec> fingers;
   std::vector<HandSpec> hands;
 };

@@ -12,6 +12,7 @@
 #include "systems/fingers.hpp"
 #include "systems/integrate.hpp"
 #include "systems/integrate_implicit.hpp"
+#include "systems/material_force.hpp"
 #include "systems/membrane_forces.hpp"
 #include "systems/propagation.hpp"
 #include "systems/regions.hpp"
@@ -109,6 +110,10 @@ struct Simulation::Impl {
   ClusterParams cluster_params;
   PropagationParams propagation_params;
   RemeshParams remesh_params;
+  bool material_force_direction = false;  // "tearing": {"direction": "material_force"}
+  double driving_force_radius = 0.04;  // m
+  DrivingForceScratch driving_scratch;
+  std::vector<int32_t> singular_vertices;  // fingers and tips: kept out of a J-integral's domain
   double max_tip_turn = 75.0 * 3.14159265358979323846 / 180.0;  // rad, largest turn of a tip per step
   double shielding_radius = 0.01;  // m
 
@@ -166,6 +171,9 @@ struct Simulation::Impl {
     propagation_params.speed = m.speed;
     propagation_params.max_step = m.max_step;
     propagation_params.min_step = std::min(m.min_step, m.max_step);
+    material_force_direction = scenario.tearing.direction == "material_force";
+    driving_force_radius = scenario.tearing.radius;
+    remesh_params.snap_fraction = scenario.tearing.snap_fraction();
 
     update_finger_targets(0.0, sheet.hands, sheet.fingers);
     for (Finger& f : sheet.fingers) f.reaction.setZero();
@@ -335,6 +343,18 @@ struct Simulation::Impl {
         PropagationParams params = propagation_params;
         for (const Tip& t : sheet.tips)
           if (c.tear >= 0 && t.tear == c.tear) params.previous_direction = t.direction;
+        // With "material_force", t is the direction of the crack driving force (the J-integral over the
+        // tip's surroundings) rather than the bisector of its fan's two clusters. Not for a tear starting at
+        // a finger: the finger's point load is itself a singularity of the domain integral.
+        if (material_force_direction && !(c.tear < 0 && c.kind == StartKind::Finger)) {
+          singular_vertices.clear();
+          for (const Finger& f : sheet.fingers) singular_vertices.push_back(f.vertex);
+          for (const Tip& t : sheet.tips) singular_vertices.push_back(t.vertex);
+          const double radius = domain_radius(sheet.verts.rest, c.vertex, singular_vertices, driving_force_radius);
+          const DrivingForce force =
+              crack_driving_force(sheet.verts, sheet.tris, sheet.topo, c.vertex, radius, membrane, driving_scratch);
+          if (force.j.squaredNorm() > 0) params.driving_direction = force.j.normalized();
+        }
         decision = decide_propagation(clusters, sheet.topo, sheet.verts.rest, c.vertex, c.fracture_energy, params);
       }
       if (!decision.propagate) continue;

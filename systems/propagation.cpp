@@ -27,6 +27,31 @@ double ccw_angle(const Vec2& a, const Vec2& b) {
   return angle;
 }
 
+// t from the unit pre-images: the bisector line of û_l and û_r, pointing away from them. False when it
+// has no reliable direction (|û_l + û_r| below kOppositeTolerance).
+bool bisector_direction(const Vec2& ul, const Vec2& ur, const PropagationParams& params, Vec2& direction) {
+  const Vec2 sum = ul + ur;
+  const double sum_norm = sum.norm();
+  if (!(sum_norm > kOppositeTolerance)) return false;
+  // For unit vectors (û_l + û_r) ⟂ (û_l − û_r), so the bisector line is also the normal of the
+  // difference. Near φ = π the sum is a small difference of two noisy vectors (its length is
+  // 2 cos(φ/2)) while the difference has length ≈ 2: taking the line from the difference keeps the
+  // direction exact as φ → π (the mode-I opening direction); the sum only chooses the sense, and
+  // when it is too short to do so reliably, the previous direction of the tear does.
+  const Vec2 diff = ul - ur;
+  if (sum_norm >= diff.norm()) {
+    direction = -sum / sum_norm;  // φ ≤ π/2: the sum is the better conditioned of the two
+  } else {
+    Vec2 line(-diff.y(), diff.x());
+    line.normalize();
+    double sense = -line.dot(sum);
+    if (sum_norm < params.sense_threshold && params.previous_direction.squaredNorm() > 0)
+      sense = line.dot(params.previous_direction);
+    direction = sense >= 0 ? line : Vec2(-line);
+  }
+  return true;
+}
+
 }  // namespace
 
 PropagationDecision decide_propagation(const ForceClusters& clusters, const Topology& topo,
@@ -52,25 +77,11 @@ PropagationDecision decide_propagation(const ForceClusters& clusters, const Topo
   // the other way along their bisector (Fig. 7); with fixed pulling points A and B this is the tangent of
   // the hyperbola |PA| − |PB| = const (O'Keefe 1994).
   if (!(nl > 0) || !(nr > 0)) return d;
-  const Vec2 ul = fl / nl, ur = fr / nr;
-  const Vec2 sum = ul + ur;
-  const double sum_norm = sum.norm();
-  if (!(sum_norm > kOppositeTolerance)) return d;
-  // For unit vectors (û_l + û_r) ⟂ (û_l − û_r), so the bisector line is also the normal of the
-  // difference. Near φ = π the sum is a small difference of two noisy vectors (its length is
-  // 2 cos(φ/2)) while the difference has length ≈ 2: taking the line from the difference keeps the
-  // direction exact as φ → π (the mode-I opening direction); the sum only chooses the sense, and
-  // when it is too short to do so reliably, the previous direction of the tear does.
-  const Vec2 diff = ul - ur;
-  if (sum_norm >= diff.norm()) {
-    d.direction = -sum / sum_norm;  // φ ≤ π/2: the sum is the better conditioned of the two
-  } else {
-    Vec2 line(-diff.y(), diff.x());
-    line.normalize();
-    double sense = -line.dot(sum);
-    if (sum_norm < params.sense_threshold && params.previous_direction.squaredNorm() > 0)
-      sense = line.dot(params.previous_direction);
-    d.direction = sense >= 0 ? line : Vec2(-line);
+  if (!finite(params.driving_direction)) return d;
+  if (params.driving_direction.squaredNorm() > 0) {
+    d.direction = params.driving_direction.normalized();
+  } else if (!bisector_direction(fl / nl, fr / nr, params, d.direction)) {
+    return d;
   }
 
   // Into the material: t strictly between the boundary directions to next and to prev, measured

@@ -15,6 +15,10 @@ struct PropagationParams {
   // sense_threshold (φ near π) the sense of t along the bisector line follows it.
   Vec2 previous_direction = Vec2::Zero();
   double sense_threshold = 0.3;
+  // When non-zero, t is this direction (unit, pattern) instead of the clusters' bisector: the direction of
+  // largest energy release from the crack driving force (systems/material_force.hpp). Er, φ and
+  // Griffith's test still come from the clusters (eq. 6).
+  Vec2 driving_direction = Vec2::Zero();
   double angle_tolerance = 1e-9;  // rad; t within this of a boundary direction at p is not "into" the sheet
 };
 
@@ -28,7 +32,7 @@ struct PropagationDecision {
 };
 
 // Er = (‖F_left‖ + ‖F_right‖) cos(φ/2) / e with φ the angle between the pattern pre-images;
-// t = −normalize(F̄_l/‖F̄_l‖ + F̄_r/‖F̄_r‖). Er and φ are filled whenever the inputs are finite; t stays
+// t = −normalize(F̄_l/‖F̄_l‖ + F̄_r/‖F̄_r‖), or params.driving_direction when given. Er and φ are filled whenever the inputs are finite; t stays
 // zero (no propagation) when a pre-image is zero or when they are opposite (φ ≈ π, flat in-plane pull).
 // `next` is not clipped to the sheet: a segment that leaves it is ended on the boundary by remeshing.
 PropagationDecision decide_propagation(const ForceClusters& clusters, const Topology& topo,

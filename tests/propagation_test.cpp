@@ -288,3 +288,28 @@ TEST(Propagation, FanForceSumBoundsTheEnergyReleaseRate) {
   s.tris.corner_force[0][0] = Vec3(std::nan(""), 0, 0);
   EXPECT_TRUE(std::isnan(fan_force_sum(s.tris, s.topo, 0)));
 }
+
+// A driving direction (the crack driving force of systems/material_force.hpp) replaces the bisector as t;
+// Er, φ and Griffith's test stay those of the clusters, and t must still point into the material.
+TEST(Propagation, DrivingDirectionReplacesTheBisector) {
+  const Sheet s = notch_sheet();
+  const ForceClusters c = flat_clusters(Vec2(-1, 2), Vec2(1, 3));
+  PropagationParams with = params();
+  with.driving_direction = Vec2(3, -4);  // not unit: normalised
+  const PropagationDecision bisector = decide_propagation(c, s.topo, s.verts.rest, 0, 0.0, params());
+  const PropagationDecision d = decide_propagation(c, s.topo, s.verts.rest, 0, 0.0, with);
+  EXPECT_NEAR((d.direction - Vec2(0.6, -0.8)).norm(), 0, 1e-15);
+  EXPECT_EQ(d.energy_release, bisector.energy_release);
+  EXPECT_EQ(d.angle, bisector.angle);
+  EXPECT_TRUE(d.propagate);
+  const double step = std::min(2e-7 * d.energy_release, 0.01);
+  EXPECT_NEAR((d.next - (s.verts.rest[0] + step * Vec2(0.6, -0.8))).norm(), 0, 1e-15);
+  // Out of the notch (the wedge between 80° and 100°): not into the material, no propagation.
+  with.driving_direction = Vec2(0, 1);
+  const PropagationDecision out = decide_propagation(c, s.topo, s.verts.rest, 0, 0.0, with);
+  EXPECT_FALSE(out.into_material);
+  EXPECT_FALSE(out.propagate);
+  // Not finite: refused.
+  with.driving_direction = Vec2(std::nan(""), 1);
+  EXPECT_FALSE(decide_propagation(c, s.topo, s.verts.rest, 0, 0.0, with).propagate);
+}

@@ -350,6 +350,48 @@ TEST(BadInput, UnknownSolver) {
   EXPECT_NE(message.find("sim.solver: unknown solver \"euler\""), std::string::npos) << message;
 }
 
+TEST(Scenario, TearingIsRead) {
+  const pt::Scenario d = pt::parse_scenario(
+      R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})", "x.json");
+  EXPECT_EQ(d.tearing.direction, "bisector");
+  EXPECT_EQ(d.tearing.snap_fraction(), 0.25);  // DESIGN §5.5's snapping, as before the option
+  const pt::Scenario s = pt::parse_scenario(
+      R"({"sheet": {"preset": "A6"}, "tearing": {"direction": "material_force", "radius": 0.03},
+          "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
+      "x.json");
+  EXPECT_EQ(s.tearing.direction, "material_force");
+  EXPECT_EQ(s.tearing.radius, 0.03);
+  EXPECT_EQ(s.tearing.snap_fraction(), 0.06);  // the direction's default
+  const pt::Scenario t = pt::parse_scenario(
+      R"({"sheet": {"preset": "A6"}, "tearing": {"direction": "material_force", "snap": 0.2},
+          "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
+      "x.json");
+  EXPECT_EQ(t.tearing.snap_fraction(), 0.2);
+}
+
+TEST(BadInput, Tearing) {
+  const auto with = [](const std::string& tearing) {
+    return error_of_text(R"({"sheet": {"preset": "A6"}, "tearing": )" + tearing +
+                             R"(, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
+                         "x.json");
+  };
+  std::string m = with(R"({"direction": "ahead"})");
+  EXPECT_NE(m.find("x.json: tearing.direction: unknown direction \"ahead\""), std::string::npos) << m;
+  m = with(R"({"radius": 0})");
+  EXPECT_NE(m.find("tearing.radius"), std::string::npos) << m;
+  m = with(R"({"radius": "big"})");
+  EXPECT_NE(m.find("tearing.radius"), std::string::npos) << m;
+  m = with(R"({"snap": 0.5})");
+  EXPECT_NE(m.find("tearing.snap: must be in [0, 0.45]"), std::string::npos) << m;
+  m = with(R"({"snap": -1})");
+  EXPECT_NE(m.find("tearing.snap"), std::string::npos) << m;
+  m = with(R"({"turn": 1})");
+  EXPECT_NE(m.find("tearing"), std::string::npos) << m;
+  EXPECT_NE(m.find("turn"), std::string::npos) << m;
+  m = with(R"([1])");
+  EXPECT_NE(m.find("tearing"), std::string::npos) << m;
+}
+
 TEST(BadInput, UnsupportedVersion) {
   const std::string message = error_of_text(
       R"({"version": 2, "sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})", "x.json");

@@ -58,6 +58,21 @@
 //    nodal forces at a tip are the crack's opening forces, perpendicular to the tear, whatever pulls the
 //    flaps. t then continues the tear's own direction, and from frame 15 to 34 it pointed back into the
 //    lips (refused by the turn check: the tip waited while the load grew) before a step 68° off.
+// Sixth session: the tip's direction from the crack driving force, the J-integral over a 4 cm domain
+// (tearing.direction = material_force, systems/material_force.hpp), which sees past the fan. 16 meshes,
+// bisector → material force: Fig. 14 mediator 29 → 14%, Fig. 14 tears 3.2 → 1.9, Fig. 15 hyperbola
+// 24 → 12%, Fig. 16 direction changes 6.9 → 6.2, Fig. 14 pulled in plane (fig14-inplane.json) 35 → 6.0%
+// (0.6–1.0% on 3 meshes, 21% at worst). Step by step against O'Keefe's bisector of PA and PB, median
+// error 24 → 7.5° (Fig. 14), 19 → 3° in plane. It needs finer snapping (snap 0.25 → 0.06 of an edge;
+// with 0.25 the in-plane error is 26%: a snapped end turns a 2 mm step by up to ~20°); the bisector does
+// not gain from it (36% at 0.03). Domain radii 0.02 / 0.03 / 0.04 / 0.06 m: mediator 18 / 16 / 14 / 16%,
+// hyperbola 17 / 14 / 12 / 14%. What is left: in plane, the path is straight over the first 3–6 cm
+// (1.8–2.0% of the length, mean over 16 meshes) and then drifts slowly to one side, as a crack between two
+// flaps pulled apart in plane does (positive T-stress, Cotterell & Rice 1980: the straight path is
+// unstable); in Fig. 14's twist the J-vector turns by 10–40° between frames while the sheet swings (a
+// quasi-static J in a dynamic sheet). Tried: bending's configurational force added by finite differences
+// (no gain), q = 0 on the outer boundary and the radius capped at half the finger distance (changes
+// within the scatter of the 16 meshes).
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "systems/topology.hpp"
@@ -171,7 +186,7 @@ TEST(Scenarios, NoSubstepIsRefusedOnMeshesThatUsedToFreeze) {
 
 INSTANTIATE_TEST_SUITE_P(Scenarios, EveryScenario,
                          ::testing::Values("demo.json", "fig12-junction.json", "fig13-twist.json",
-                                           "fig14-straight.json", "fig15-curved.json", "fig16-direction.json",
+                                           "fig14-straight.json", "fig14-inplane.json", "fig15-curved.json", "fig16-direction.json",
                                            "fig16-zigzag.json", "fig17-branching.json", "fig18-crumple.json",
                                            "fig19-sigma1mm.json", "fig21-notch.json", "start-finger.json",
                                            "start-inward.json", "start-junction.json", "torn-in-two.json"),
@@ -193,6 +208,45 @@ TEST(Scenarios, SymmetricPullTearsFromTheApexIntoTheSheet) {
   EXPECT_LT(tear.tips.back().y(), 0.19 - 0.03) << "the tear runs at least 3 cm into the sheet";
   const Vec2 a = finger_uv(s, "A"), b = finger_uv(s, "B");
   for (const Vec2& p : tear.tips) EXPECT_TRUE(p.x() > a.x() && p.x() < b.x()) << p.transpose();
+}
+
+// Largest distance of the first tear's coarse path from the mediator of fingers A and B, as a fraction of
+// the path's length.
+double mediator_error(const Scenario& s, const Sheet& sheet) {
+  const Vec2 a = finger_uv(s, "A"), b = finger_uv(s, "B"), axis = (b - a).normalized(), mid = 0.5 * (a + b);
+  const Tear& tear = sheet.tears.at(0);
+  double worst = 0;
+  for (const Vec2& p : tear.tips) worst = std::max(worst, std::abs((p - mid).dot(axis)));
+  return worst / path_length(tear.tips);
+}
+
+// The crack driving force (tearing.direction = material_force) exists because the fan's bisector does not
+// see past the tip's own triangles. Fig. 14's sheet pulled apart in plane, on the four meshes of the claim
+// below: its tears stay at least twice as close to the mediator as the bisector's (measured over 16 meshes,
+// mean 6.0% against 35%).
+TEST(Scenarios, MaterialForceTearsCloserToTheMediatorThanTheBisector) {
+  const Scenario base = load_scenario(scenario_path("fig14-inplane.json"));
+  ASSERT_EQ(base.tearing.direction, "material_force");
+  double material_force = 0, bisector = 0;
+  const std::pair<uint64_t, double> meshes[] = {{0, 0.0}, {1, 17.0}, {2, 45.0}, {3, 71.0}};
+  for (const auto& [seed, rotation] : meshes) {
+    for (const char* direction : {"material_force", "bisector"}) {
+      Scenario s = base;
+      s.mesh_seed = seed;
+      s.mesh_rotation_deg = rotation;
+      s.tearing.direction = direction;
+      s.tearing.snap.reset();
+      ScenarioRun r = run_scenario(s);
+      ASSERT_FALSE(r.sheet().tears.empty()) << direction << " seed " << seed;
+      EXPECT_GT(path_length(r.sheet().tears[0].tips), 0.03) << direction << " seed " << seed;
+      const double error = mediator_error(s, r.sheet());
+      std::printf("seed %d, %s: %.1f%% of the path length\n", static_cast<int>(seed), direction, 100 * error);
+      (std::string(direction) == "bisector" ? bisector : material_force) += error / 4;
+      expect_no_violations(*r.sim);
+    }
+  }
+  EXPECT_LT(material_force, 0.5 * bisector) << "mean mediator errors: material force " << material_force
+                                            << ", bisector " << bisector;
 }
 
 // Fig. 14, quantitatively: within 1% of the path length from the mediator, on four meshes. Not met yet.
@@ -309,57 +363,68 @@ TEST(Scenarios, DISABLED_ZigzagHasThreeDirectionChanges) {
 //   build-tear/bin/scenarios_test --gtest_also_run_disabled_tests --gtest_filter='*Issue3Measurements*'
 TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
   const int meshes = 16;
-  std::vector<double> mediator, fig14_tears, hyperbola, hyperbola_2x, zigzag, fig16_tears;
   const Scenario fig14 = load_scenario(scenario_path("fig14-straight.json"));
+  const Scenario fig14_inplane = load_scenario(scenario_path("fig14-inplane.json"));
   const Scenario fig15 = load_scenario(scenario_path("fig15-curved.json"));
   const Scenario fig16 = load_scenario(scenario_path("fig16-zigzag.json"));
-  for (int i = 0; i < meshes; ++i) {
-    auto remeshed = [&](Scenario s) {
-      s.mesh_seed = static_cast<uint64_t>(i);
-      s.mesh_rotation_deg = 17.0 * i;
-      return s;
+  for (const char* direction : {"bisector", "material_force"}) {
+    std::vector<double> mediator, fig14_tears, inplane, hyperbola, hyperbola_2x, zigzag, fig16_tears;
+    for (int i = 0; i < meshes; ++i) {
+      auto remeshed = [&](Scenario s) {
+        s.mesh_seed = static_cast<uint64_t>(i);
+        s.mesh_rotation_deg = 17.0 * i;
+        s.tearing.direction = direction;
+        s.tearing.snap.reset();
+        return s;
+      };
+      {
+        const Scenario s = remeshed(fig14);
+        ScenarioRun r = run_scenario(s);
+        ASSERT_FALSE(r.sheet().tears.empty());
+        mediator.push_back(100 * mediator_error(s, r.sheet()));
+        fig14_tears.push_back(static_cast<double>(r.sheet().tears.size()));
+      }
+      {
+        const Scenario s = remeshed(fig14_inplane);
+        ScenarioRun r = run_scenario(s);
+        ASSERT_FALSE(r.sheet().tears.empty());
+        inplane.push_back(100 * mediator_error(s, r.sheet()));
+      }
+      for (const double cap : {1.0, 2.0}) {
+        Scenario s = remeshed(fig15);
+        s.material.max_step *= cap;
+        const Vec2 a = finger_uv(s, "A"), b = finger_uv(s, "B");
+        ScenarioRun r = run_scenario(s);
+        ASSERT_FALSE(r.sheet().tears.empty());
+        const std::vector<Vec2>& tips = r.sheet().tears[0].tips;
+        const double d0 = (tips[0] - a).norm() - (tips[0] - b).norm();
+        double worst = 0;
+        for (const Vec2& p : tips) worst = std::max(worst, std::abs((p - a).norm() - (p - b).norm() - d0));
+        (cap == 1.0 ? hyperbola : hyperbola_2x).push_back(100 * worst / (a - b).norm());
+      }
+      {
+        ScenarioRun r = run_scenario(remeshed(fig16));
+        ASSERT_FALSE(r.sheet().tears.empty());
+        zigzag.push_back(direction_changes(r.sheet().tears[0].tips, 0.2));
+        fig16_tears.push_back(static_cast<double>(r.sheet().tears.size()));
+      }
+    }
+    auto print = [](const char* what, std::vector<double> v) {
+      std::sort(v.begin(), v.end());
+      double mean = 0;
+      for (double x : v) mean += x / v.size();
+      std::printf("%-42s mean %5.1f  min %5.1f  median %5.1f  max %5.1f\n", what, mean, v.front(), v[v.size() / 2],
+                  v.back());
     };
-    {
-      const Vec2 a = finger_uv(fig14, "A"), b = finger_uv(fig14, "B"), axis = (b - a).normalized(), mid = 0.5 * (a + b);
-      ScenarioRun r = run_scenario(remeshed(fig14));
-      ASSERT_FALSE(r.sheet().tears.empty());
-      double worst = 0;
-      for (const Vec2& p : r.sheet().tears[0].tips) worst = std::max(worst, std::abs((p - mid).dot(axis)));
-      mediator.push_back(100 * worst / path_length(r.sheet().tears[0].tips));
-      fig14_tears.push_back(static_cast<double>(r.sheet().tears.size()));
-    }
-    for (const double cap : {1.0, 2.0}) {
-      Scenario s = remeshed(fig15);
-      s.material.max_step *= cap;
-      const Vec2 a = finger_uv(s, "A"), b = finger_uv(s, "B");
-      ScenarioRun r = run_scenario(s);
-      ASSERT_FALSE(r.sheet().tears.empty());
-      const std::vector<Vec2>& tips = r.sheet().tears[0].tips;
-      const double d0 = (tips[0] - a).norm() - (tips[0] - b).norm();
-      double worst = 0;
-      for (const Vec2& p : tips) worst = std::max(worst, std::abs((p - a).norm() - (p - b).norm() - d0));
-      (cap == 1.0 ? hyperbola : hyperbola_2x).push_back(100 * worst / (a - b).norm());
-    }
-    {
-      ScenarioRun r = run_scenario(remeshed(fig16));
-      ASSERT_FALSE(r.sheet().tears.empty());
-      zigzag.push_back(direction_changes(r.sheet().tears[0].tips, 0.2));
-      fig16_tears.push_back(static_cast<double>(r.sheet().tears.size()));
-    }
+    std::printf("tearing.direction = %s\n", direction);
+    print("Fig. 14 mediator error, % length", mediator);
+    print("Fig. 14 tears", fig14_tears);
+    print("Fig. 14 in plane: mediator error, % length", inplane);
+    print("Fig. 15 hyperbola error, % |AB|", hyperbola);
+    print("Fig. 15 same, twice the step cap", hyperbola_2x);
+    print("Fig. 16 direction changes > 0.2", zigzag);
+    print("Fig. 16 tears", fig16_tears);
   }
-  auto print = [](const char* what, std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    double mean = 0;
-    for (double x : v) mean += x / v.size();
-    std::printf("%-34s mean %5.1f  min %5.1f  median %5.1f  max %5.1f\n", what, mean, v.front(), v[v.size() / 2],
-                v.back());
-  };
-  print("Fig. 14 mediator error, % length", mediator);
-  print("Fig. 14 tears", fig14_tears);
-  print("Fig. 15 hyperbola error, % |AB|", hyperbola);
-  print("Fig. 15 same, twice the step cap", hyperbola_2x);
-  print("Fig. 16 direction changes > 0.2", zigzag);
-  print("Fig. 16 tears", fig16_tears);
 }
 
 // A sheet torn in two: two pieces that both keep falling and swinging.

@@ -48,7 +48,8 @@ json session_json(const Simulation& sim, const std::string& name) {
   j["material"] = {{"thickness", m.thickness},   {"density", m.density},         {"young", m.young},
                    {"poisson", m.poisson},       {"bending_scale", m.bending_scale}, {"damping", m.damping},
                    {"tip_damage", m.tip_damage}, {"fiber_seed", m.fiber_seed},   {"fiber_scale", m.fiber_scale},
-                   {"fracture_c", m.fracture_c}, {"speed", m.speed},             {"max_step", m.max_step}};
+                   {"fracture_c", m.fracture_c}, {"speed", m.speed},             {"max_step", m.max_step},
+                   {"min_step", m.min_step},     {"fiber_floor", m.fiber_floor}};
 
   // The detail noise as the simulation has it now (the viewer sets it live).
   json d = {{"sigma", sim.detail_params().sigma}, {"omega", sim.detail_params().omega}};
@@ -60,7 +61,10 @@ json session_json(const Simulation& sim, const std::string& name) {
               {"substeps", sc.sim.substeps},
               {"frames", std::max(1, sim.frame())},
               {"gravity", vec(sc.sim.gravity)},
-              {"iterations", sc.sim.iterations}};
+              {"iterations", sc.sim.iterations},
+              {"solver", sc.sim.solver}};
+  j["tearing"] = {{"direction", sc.tearing.direction}, {"radius", sc.tearing.radius}};
+  if (sc.tearing.snap) j["tearing"]["snap"] = *sc.tearing.snap;
 
   json fingers = json::array();
   for (const Finger& f : sheet.fingers) {

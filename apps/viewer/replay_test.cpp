@@ -45,6 +45,10 @@ TEST(ViewerReplay, RecordedSessionReplaysToTheSameTears) {
   Scenario base = load_scenario(std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json");
   base.fingers.clear();
   base.hands.clear();
+  // Not the defaults, so the recording must carry them.
+  base.tearing.direction = "material_force";
+  base.tearing.radius = 0.035;
+  base.tearing.snap = 0.1;
   constexpr int kFrames = 75;
   Simulation live(base);
   int a = -1, b = -1;
@@ -78,6 +82,12 @@ TEST(ViewerReplay, RecordedSessionReplaysToTheSameTears) {
   const std::string path = out_dir() + "/session.json";
   viewer::write_session(live, path);
   const Scenario replay_scenario = load_scenario(path);
+  EXPECT_EQ(replay_scenario.tearing.direction, "material_force");
+  EXPECT_EQ(replay_scenario.tearing.radius, 0.035);
+  EXPECT_EQ(replay_scenario.tearing.snap, std::optional<double>(0.1));
+  EXPECT_EQ(replay_scenario.sim.solver, base.sim.solver);
+  EXPECT_EQ(replay_scenario.material.min_step, base.material.min_step);
+  EXPECT_EQ(replay_scenario.material.fiber_floor, base.material.fiber_floor);
   ASSERT_EQ(replay_scenario.sim.frames, kFrames);
   ASSERT_EQ(replay_scenario.fingers.size(), 2u);
 
