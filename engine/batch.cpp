@@ -28,7 +28,7 @@ Variation parse_variation(const std::string& text) {
                                 "material.fracture_c", "material.speed",    "material.max_step",
                                 "material.damping",   "material.fiber_scale", "detail.sigma",
                                 "detail.omega",       "sim.substeps",       "sim.iterations",
-                                "finger_speed"};
+                                "tearing.radius",     "tearing.snap",       "finger_speed"};
   bool ok = false;
   for (const char* k : known) ok = ok || v.key == k;
   if (!ok) throw InputError("--vary " + text + ": unknown key '" + v.key + "'");
@@ -64,6 +64,8 @@ void apply_variation(const std::string& key, double value, Scenario& s) {
   else if (key == "detail.omega") s.detail.omega = value;
   else if (key == "sim.substeps") s.sim.substeps = std::max(1, static_cast<int32_t>(std::lround(value)));
   else if (key == "sim.iterations") s.sim.iterations = std::max(1, static_cast<int32_t>(std::lround(value)));
+  else if (key == "tearing.radius") s.tearing.radius = value;
+  else if (key == "tearing.snap") s.tearing.snap = value;
   else if (key == "finger_speed") {
     // Motions play `value` times faster: every key time is divided by it.
     const double scale = value > 0 ? value : 1.0;
