@@ -343,19 +343,25 @@ struct Simulation::Impl {
         PropagationParams params = propagation_params;
         for (const Tip& t : sheet.tips)
           if (c.tear >= 0 && t.tear == c.tear) params.previous_direction = t.direction;
+        decision = decide_propagation(clusters, sheet.topo, sheet.verts.rest, c.vertex, c.fracture_energy, params);
         // With "material_force", t is the direction of the crack driving force (the J-integral over the
-        // tip's surroundings) rather than the bisector of its fan's two clusters. Not for a tear starting at
-        // a finger: the finger's point load is itself a singularity of the domain integral.
-        if (material_force_direction && !(c.tear < 0 && c.kind == StartKind::Finger)) {
+        // tip's surroundings) rather than the bisector of its fan's two clusters. Er and Griffith's test do
+        // not depend on t, so only a point that passes them pays for the domain integral. Not for a tear
+        // starting at a finger: the finger's point load is itself a singularity of the domain integral.
+        const bool griffith = clusters.left_count > 0 && clusters.right_count > 0 &&
+                              decision.energy_release >= c.fracture_energy;
+        if (material_force_direction && griffith && !(c.tear < 0 && c.kind == StartKind::Finger)) {
           singular_vertices.clear();
           for (const Finger& f : sheet.fingers) singular_vertices.push_back(f.vertex);
           for (const Tip& t : sheet.tips) singular_vertices.push_back(t.vertex);
           const double radius = domain_radius(sheet.verts.rest, c.vertex, singular_vertices, driving_force_radius);
           const DrivingForce force =
               crack_driving_force(sheet.verts, sheet.tris, sheet.topo, c.vertex, radius, membrane, driving_scratch);
-          if (force.j.squaredNorm() > 0) params.driving_direction = force.j.normalized();
+          if (force.j.squaredNorm() > 0) {
+            params.driving_direction = force.j.normalized();
+            decision = decide_propagation(clusters, sheet.topo, sheet.verts.rest, c.vertex, c.fracture_energy, params);
+          }
         }
-        decision = decide_propagation(clusters, sheet.topo, sheet.verts.rest, c.vertex, c.fracture_energy, params);
       }
       if (!decision.propagate) continue;
       // A tip cannot run back into its own lips: at a tear tip the interior angle is ~2π, so the
