@@ -7,6 +7,7 @@
 #include "systems/block_ldlt.hpp"
 #include "systems/candidates.hpp"
 #include "systems/clustering.hpp"
+#include "systems/material_force.hpp"
 #include "systems/membrane_forces.hpp"
 #include "systems/propagation.hpp"
 #include "systems/regions.hpp"
@@ -99,6 +100,22 @@ void BM_ClusterAndPropagate(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_ClusterAndPropagate)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+// The crack driving force at the tip (tearing.direction = material_force): the J-integral over a 4 cm
+// domain. Its cost grows with the triangles in the domain (counter), not with the sheet.
+void BM_MaterialForce(benchmark::State& state) {
+  BentSheet b = bent_sheet(static_cast<int32_t>(state.range(0)));
+  const Sheet& s = b.sheet;
+  const MembraneParams mp = membrane_params(s.material);
+  DrivingForceScratch scratch;
+  DrivingForce f;
+  for (auto _ : state) {
+    f = crack_driving_force(s.verts, s.tris, s.topo, b.tip, 0.04, mp, scratch);
+    benchmark::DoNotOptimize(f);
+  }
+  state.counters["domain_triangles"] = f.triangles;
+}
+BENCHMARK(BM_MaterialForce)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
 // One 5 mm cut from the tip, on a fresh copy each time (the copy and its destruction are not timed).
 // Includes the local topology refresh at its end.
