@@ -300,11 +300,13 @@ TEST(Scenarios, DISABLED_AsymmetricPullFollowsTheHyperbola) {
 }
 
 TEST(Scenarios, SameResultAtOneAndTwoThreads) {
-  const Scenario s = load_scenario(scenario_path("fig14-straight.json"));
-  ScenarioRun one = run_scenario(s, 1);
-  ScenarioRun two = run_scenario(s, 2);
-  EXPECT_EQ(one.sim->state_hash(), two.sim->state_hash());
-  ASSERT_EQ(one.sheet().tears.size(), two.sheet().tears.size());
+  for (const char* file : {"fig14-straight.json", "fig14-inplane.json"}) {
+    const Scenario s = load_scenario(scenario_path(file));
+    ScenarioRun one = run_scenario(s, 1);
+    ScenarioRun two = run_scenario(s, 2);
+    EXPECT_EQ(one.sim->state_hash(), two.sim->state_hash()) << file;
+    ASSERT_EQ(one.sheet().tears.size(), two.sheet().tears.size()) << file;
+  }
 }
 
 // §7.1 and Figs. 12, 13: where tears start.
