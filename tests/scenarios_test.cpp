@@ -72,7 +72,9 @@
 // unstable); in Fig. 14's twist the J-vector turns by 10–40° between frames while the sheet swings (a
 // quasi-static J in a dynamic sheet). Tried: bending's configurational force added by finite differences
 // (no gain), q = 0 on the outer boundary and the radius capped at half the finger distance (changes
-// within the scatter of the 16 meshes).
+// within the scatter of the 16 meshes), q = 0 on the lips too (the lips pinned, so the virtual advance is a
+// kink: 28% / 28%, in plane 35%), Griffith's test on |J| instead of eq. 6 (the tip no longer stalls after a
+// cut, steps k·|J| get longer: 24% / 20%, 13 tears in Fig. 16).
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "systems/topology.hpp"
