@@ -601,8 +601,8 @@ Scenario parse_scenario(const std::string& json_text, const std::string& path_fo
   if (!root.is_object()) fail(file, "", std::string("expected a JSON object at the top level, got ") + type_name(root));
 
   const Reader r{file};
-  r.check_keys(root, "", {"name", "description", "version", "sheet", "material", "detail", "sim", "tearing", "fingers",
-                               "hands"});
+  r.check_keys(root, "",
+               {"name", "description", "version", "sheet", "material", "detail", "sim", "tearing", "fingers", "hands"});
 
   Scenario s;
   s.path = file;

@@ -9,7 +9,8 @@ namespace pt {
 double domain_radius(const std::vector<Vec2>& rest, int32_t p, const std::vector<int32_t>& others, double radius) {
   if (p < 0 || p >= static_cast<int32_t>(rest.size())) return 0;
   for (int32_t o : others)
-    if (o >= 0 && o != p && o < static_cast<int32_t>(rest.size())) radius = std::min(radius, (rest[o] - rest[p]).norm());
+    if (o >= 0 && o != p && o < static_cast<int32_t>(rest.size()))
+      radius = std::min(radius, (rest[o] - rest[p]).norm());
   return radius;
 }
 

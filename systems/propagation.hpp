@@ -32,8 +32,10 @@ struct PropagationDecision {
 };
 
 // Er = (‖F_left‖ + ‖F_right‖) cos(φ/2) / e with φ the angle between the pattern pre-images;
-// t = −normalize(F̄_l/‖F̄_l‖ + F̄_r/‖F̄_r‖), or params.driving_direction when given. Er and φ are filled whenever the inputs are finite; t stays
-// zero (no propagation) when a pre-image is zero or when they are opposite (φ ≈ π, flat in-plane pull).
+// t = −normalize(F̄_l/‖F̄_l‖ + F̄_r/‖F̄_r‖), or params.driving_direction when that is non-zero. Er and φ
+// are filled whenever the inputs are finite; t stays zero (no propagation) when a pre-image is zero, when
+// the driving direction is not finite, or, for the bisector, when the pre-images are opposite (φ ≈ π,
+// flat in-plane pull).
 // `next` is not clipped to the sheet: a segment that leaves it is ended on the boundary by remeshing.
 PropagationDecision decide_propagation(const ForceClusters& clusters, const Topology& topo,
                                        const std::vector<Vec2>& rest, int32_t p, double fracture_energy,
