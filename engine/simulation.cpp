@@ -117,6 +117,14 @@ struct Simulation::Impl {
   double max_tip_turn = 75.0 * 3.14159265358979323846 / 180.0;  // rad, largest turn of a tip per step
   double shielding_radius = 0.01;  // m
 
+  // e, k and the step bounds of p_next = p + k·Er·t from the material (at start and on a live edit).
+  void take_propagation_params(const Material& m) {
+    propagation_params.thickness = m.thickness;
+    propagation_params.speed = m.speed;
+    propagation_params.max_step = m.max_step;
+    propagation_params.min_step = std::min(m.min_step, m.max_step);
+  }
+
   bool shielded(const Vec2& uv) const {
     for (const Tip& t : sheet.tips)
       if ((sheet.verts.rest[t.vertex] - uv).norm() < shielding_radius) return true;
@@ -167,10 +175,7 @@ struct Simulation::Impl {
     implicit_params.run = integrate_params.run;
     use_projective = scenario.sim.solver == "projective";
     membrane = membrane_params(m);
-    propagation_params.thickness = m.thickness;
-    propagation_params.speed = m.speed;
-    propagation_params.max_step = m.max_step;
-    propagation_params.min_step = std::min(m.min_step, m.max_step);
+    take_propagation_params(m);
     material_force_direction = scenario.tearing.direction == "material_force";
     driving_force_radius = scenario.tearing.radius;
     remesh_params.snap_fraction = scenario.tearing.snap_fraction();
@@ -348,9 +353,7 @@ struct Simulation::Impl {
         // tip's surroundings) rather than the bisector of its fan's two clusters. Er and Griffith's test do
         // not depend on t, so only a point that passes them pays for the domain integral. Not for a tear
         // starting at a finger: the finger's point load is itself a singularity of the domain integral.
-        const bool griffith = clusters.left_count > 0 && clusters.right_count > 0 &&
-                              decision.energy_release >= c.fracture_energy;
-        if (material_force_direction && griffith && !(c.tear < 0 && c.kind == StartKind::Finger)) {
+        if (material_force_direction && decision.griffith && !(c.tear < 0 && c.kind == StartKind::Finger)) {
           singular_vertices.clear();
           for (const Finger& f : sheet.fingers) singular_vertices.push_back(f.vertex);
           for (const Tip& t : sheet.tips) singular_vertices.push_back(t.vertex);
@@ -554,9 +557,7 @@ void Simulation::set_propagation_speed(double speed, double max_step) {
   Impl& m = *impl_;
   m.sheet.material.speed = speed;
   m.sheet.material.max_step = max_step;
-  m.propagation_params.speed = speed;
-  m.propagation_params.max_step = max_step;
-  m.propagation_params.min_step = std::min(m.sheet.material.min_step, max_step);
+  m.take_propagation_params(m.sheet.material);
 }
 
 void Simulation::set_detail_noise(double sigma, double omega) {

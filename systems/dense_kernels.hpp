@@ -1,12 +1,13 @@
 // Dense kernels of the block factorisations (systems/block_ldlt.cpp): the supernodal path's panel
 // products, diagonal block Cholesky and triangular solve below it, on column-major matrices given by
-// pointer and leading dimension, and the column path's 3 × 3 block update. They are most of a big sheet's factorisation (a 10 000-triangle sheet:
-// 0.57 GFlop per factorisation), and Debian builds for the x86-64 baseline, whose SSE2 kernels reach
-// 6–7 GFlop/s per core on this machine. So there are two builds, chosen once per process by what the CPU
-// supports: the baseline one (Eigen, dense_kernels_impl.inc) and one compiled for AVX2 + FMA
-// (dense_kernels_avx2.cpp: hand-written products and solve whose entries do not depend on how a panel is
-// chunked, and Eigen's Cholesky compiled for AVX2). A process uses one of them throughout, so results stay
-// bit-identical at any thread count; they differ between the two builds by rounding (FMA).
+// pointer and leading dimension, and the column path's 3 × 3 block update. They are most of a big sheet's
+// factorisation (a 10 000-triangle sheet: 0.57 GFlop per factorisation), and Debian builds for the x86-64
+// baseline, whose SSE2 kernels reach 6–7 GFlop/s per core on this machine. So there are two builds, chosen
+// once per process by what the CPU supports: the baseline one (Eigen, dense_kernels_impl.inc) and one
+// compiled for AVX2 + FMA (dense_kernels_avx2.cpp: hand-written products and solve whose entries do not
+// depend on how a panel is chunked, and Eigen's Cholesky compiled for AVX2). A process uses one of them
+// throughout, so results stay bit-identical at any thread count; they differ between the two builds by
+// rounding (FMA).
 #pragma once
 
 #include <cstdint>

@@ -44,7 +44,8 @@ struct ImplicitSolver {
     int32_t triangle, pair, row, held_vertex;
     bool transpose;
   };
-  std::vector<HeldStiffness> stiffness_held;       // rhs[row] −= K_k (or K_kᵀ) v⁺[held_vertex], in (triangle, pair) order
+  // rhs[row] −= K_k (or K_kᵀ) v⁺[held_vertex], in (triangle, pair) order.
+  std::vector<HeldStiffness> stiffness_held;
   std::vector<BendingStencil> stencils;
   struct HeldCoupling {
     int32_t row, held_vertex;
@@ -73,17 +74,9 @@ struct ImplicitSolver {
   std::vector<Vec3> velocity_next;
   ImplicitStats stats;
 
-  std::vector<int32_t> row_start;                  // per free row I, its first key (keys sorted by row)
+  std::vector<int32_t> diagonal_key;               // per free row I, the key of block (I, I)
   std::vector<int32_t> pair_row, pair_column;      // scratch of the structure build (row −1: a held vertex)
   std::vector<int32_t> pair_key;                   // scratch: the key of each pair
-
-  std::vector<int32_t> block_column;              // J of every key (a row's columns, searched by block_of)
-
-  int32_t block_of(int32_t i, int32_t j) const {
-    const auto first = block_column.begin() + row_start[i], last = block_column.begin() + row_start[i + 1];
-    const auto it = std::lower_bound(first, last, j);
-    return (it != last && *it == j) ? static_cast<int32_t>(it - block_column.begin()) : -1;
-  }
 };
 
 namespace {
@@ -105,14 +98,14 @@ const ImplicitStats& implicit_solver_stats(const ImplicitSolver& solver) { retur
 
 size_t implicit_solver_bytes(const ImplicitSolver& s) {
   return sizeof(ImplicitSolver) + capacity_bytes(s.held) + capacity_bytes(s.free_index) + capacity_bytes(s.block_key) +
-         capacity_bytes(s.block_column) + capacity_bytes(s.block_values) + capacity_bytes(s.tri_block) +
+         capacity_bytes(s.diagonal_key) + capacity_bytes(s.block_values) + capacity_bytes(s.tri_block) +
          capacity_bytes(s.tri_dest) + capacity_bytes(s.stiffness_held) +
          capacity_bytes(s.stencils) + capacity_bytes(s.bending_held) + capacity_bytes(s.base_values) +
          block_ldlt_bytes(s.ldlt) + capacity_bytes(s.analysed_keys) + capacity_bytes(s.analysed_rest) +
          capacity_bytes(s.tri_k) + capacity_bytes(s.tri_energy) +
          capacity_bytes(s.tri_check) + capacity_bytes(s.next_frame) + capacity_bytes(s.next_corners) +
          static_cast<size_t>(s.rhs.size() + s.solution.size()) * sizeof(double) + capacity_bytes(s.velocity_next) +
-         capacity_bytes(s.row_start) + capacity_bytes(s.pair_row) + capacity_bytes(s.pair_column) +
+         capacity_bytes(s.pair_row) + capacity_bytes(s.pair_column) +
          capacity_bytes(s.pair_key);
 }
 
@@ -143,7 +136,7 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
   // sorted by (I, J) without a global sort. Every pair keeps the key it landed in (pair_key), so the
   // triangles' and stencils' blocks are known without a search: pair q is corner pair (a, b) of triangle t
   // at 9t + 3a + b, of stencil k at 9 nt + 16k + 4a + b, vertex v's diagonal at 9 nt + 16 ns + v (row −1
-  // when a vertex is held). A binary search per pair (block_of) took a third of this function's time,
+  // when a vertex is held). A binary search per pair took a third of this function's time,
   // its branches mispredicted.
   const int32_t ns = static_cast<int32_t>(s.stencils.size());
   const int32_t stencil_pairs = 9 * nt, vertex_pairs = stencil_pairs + 16 * ns;
@@ -173,8 +166,7 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
     for (int32_t q = 0; q < pairs; ++q)
       if (s.pair_row[q] >= 0) bucket[next[s.pair_row[q]]++] = q;
     s.block_key.clear();
-    s.block_column.clear();
-    s.row_start.assign(s.free_count + 1, 0);
+    s.diagonal_key.assign(s.free_count, -1);
     std::vector<int32_t> stamp(s.free_count, -1), key_of_column(s.free_count, -1), unique;
     for (int32_t i = 0; i < s.free_count; ++i) {
       unique.clear();
@@ -188,11 +180,10 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
       std::sort(unique.begin(), unique.end());
       for (int32_t j : unique) {
         key_of_column[j] = static_cast<int32_t>(s.block_key.size());
+        if (j == i) s.diagonal_key[i] = static_cast<int32_t>(s.block_key.size());
         s.block_key.emplace_back(i, j);
-        s.block_column.push_back(j);
       }
       for (int32_t p = start[i]; p < start[i + 1]; ++p) s.pair_key[bucket[p]] = key_of_column[s.pair_column[bucket[p]]];
-      s.row_start[i + 1] = static_cast<int32_t>(s.block_key.size());
     }
   }
 
@@ -482,11 +473,11 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
       // comparable to a vertex's mass when a sliver makes the largest entry huge, negligible otherwise.
       double largest = 0;
       for (int32_t i = 0; i < s.free_count; ++i)
-        largest = std::max(largest, values[s.block_of(i, i)].diagonal().maxCoeff());
+        largest = std::max(largest, values[s.diagonal_key[i]].diagonal().maxCoeff());
       bool factored = false;
       for (const double relative : {1e-14, 1e-12, 1e-10}) {
         for (int32_t i = 0; i < s.free_count; ++i)
-          values[s.block_of(i, i)].diagonal().array() += relative * largest;
+          values[s.diagonal_key[i]].diagonal().array() += relative * largest;
         s.stats.factorizations += 1;
         if ((factored = factorize_block_ldlt(values, params.run, s.ldlt))) break;
       }

@@ -26,8 +26,12 @@ DrivingForce crack_driving_force(const Vertices& verts, const Triangles& tris, c
   auto weight = [&](int32_t v) { return v == p ? 1.0 : std::max(0.0, 1.0 - (rest[v] - center).norm() / radius); };
 
   // The domain: vertices reached from p through vertices with q > 0 (breadth first over the fans), and
-  // every triangle of their fans (a triangle with a corner of q > 0 may have a non-zero ∇q).
-  if (scratch.stamp.size() < static_cast<size_t>(nv)) scratch.stamp.resize(nv, 0);
+  // every triangle of their fans (a triangle with a corner of q > 0 may have a non-zero ∇q). Each visited
+  // vertex keeps its q; a corner not visited has q = 0.
+  if (scratch.stamp.size() < static_cast<size_t>(nv)) {
+    scratch.stamp.resize(nv, 0);
+    scratch.weight.resize(nv, 0.0);
+  }
   if (++scratch.call == 0) {  // wrapped: clear the stamps once
     std::fill(scratch.stamp.begin(), scratch.stamp.end(), 0);
     scratch.call = 1;
@@ -38,18 +42,23 @@ DrivingForce crack_driving_force(const Vertices& verts, const Triangles& tris, c
   queue.assign(1, p);
   domain.clear();
   scratch.stamp[p] = call;
+  scratch.weight[p] = 1.0;
   for (size_t head = 0; head < queue.size(); ++head) {
     const int32_t v = queue[head];
     for (int32_t k = topo.vt_offset[v]; k < topo.vt_offset[v + 1]; ++k) {
       const int32_t t = topo.vt_tri[k];
       domain.push_back(t);
-      for (int32_t c : tris.tri[t])
-        if (scratch.stamp[c] != call && weight(c) > 0) {
-          scratch.stamp[c] = call;
-          queue.push_back(c);
-        }
+      for (int32_t c : tris.tri[t]) {
+        if (scratch.stamp[c] == call) continue;
+        const double q = weight(c);
+        if (!(q > 0)) continue;
+        scratch.stamp[c] = call;
+        scratch.weight[c] = q;
+        queue.push_back(c);
+      }
     }
   }
+  auto q_of = [&](int32_t v) { return scratch.stamp[v] == call ? scratch.weight[v] : 0.0; };
   std::sort(domain.begin(), domain.end());
   domain.erase(std::unique(domain.begin(), domain.end()), domain.end());
 
@@ -60,7 +69,7 @@ DrivingForce crack_driving_force(const Vertices& verts, const Triangles& tris, c
     const Mat2& rest_inv = tris.rest_inv[t];
     // F = Σ_a x_a ∇N_aᵀ with ∇N_1, ∇N_2 the rows of rest_inv and ∇N_0 = −∇N_1 − ∇N_2.
     const Vec2 g1 = rest_inv.row(0).transpose(), g2 = rest_inv.row(1).transpose();
-    const Vec2 grad_q = weight(c[0]) * (-g1 - g2) + weight(c[1]) * g1 + weight(c[2]) * g2;
+    const Vec2 grad_q = q_of(c[0]) * (-g1 - g2) + q_of(c[1]) * g1 + q_of(c[2]) * g2;
     if (grad_q.squaredNorm() == 0) continue;
     CorotatedFrame frame;
     corotated_frame(verts.x[c[0]], verts.x[c[1]], verts.x[c[2]], rest_inv, frame);

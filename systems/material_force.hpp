@@ -37,6 +37,7 @@ double domain_radius(const std::vector<Vec2>& rest, int32_t p, const std::vector
 
 struct DrivingForceScratch {
   std::vector<int32_t> stamp;   // per vertex: the call that visited it
+  std::vector<double> weight;   // per vertex visited by the current call: its q
   std::vector<int32_t> queue;   // vertices of the domain, in visiting order
   std::vector<int32_t> triangles;
   int32_t call = 0;

@@ -72,6 +72,9 @@ PropagationDecision decide_propagation(const ForceClusters& clusters, const Topo
 
   // Eq. 6 with 3D magnitudes: the pre-images carry the geometry (the angle), the 3D forces the load.
   d.energy_release = (clusters.left.norm() + clusters.right.norm()) * std::cos(0.5 * d.angle) / params.thickness;
+  // Griffith (eq. 1): Er ≥ Ef; both virtual fingers must exist. It does not depend on t.
+  const bool both = clusters.left_count > 0 && clusters.right_count > 0;
+  d.griffith = both && std::isfinite(d.energy_release) && d.energy_release >= fracture_energy;
 
   // t = −normalize(F̂̄_l + F̂̄_r): internal forces at p point toward the pulling sides, the tear runs
   // the other way along their bisector (Fig. 7); with fixed pulling points A and B this is the tangent of
@@ -93,10 +96,7 @@ PropagationDecision decide_propagation(const ForceClusters& clusters, const Topo
     d.into_material = at > params.angle_tolerance && at < interior - params.angle_tolerance;
   }
 
-  // Griffith (eq. 1): Er ≥ Ef; both virtual fingers must exist.
-  const bool both = clusters.left_count > 0 && clusters.right_count > 0;
-  d.propagate = both && d.into_material && std::isfinite(d.energy_release) &&
-                d.energy_release >= fracture_energy;
+  d.propagate = d.griffith && d.into_material;
   if (d.propagate) {
     // p_next = p + k · Er · t (§5.2), capped, and not shorter than min_step (slivers).
     const double step = std::max(std::min(params.speed * d.energy_release, params.max_step), params.min_step);

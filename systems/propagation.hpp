@@ -27,7 +27,8 @@ struct PropagationDecision {
   double angle = 0;              // φ ∈ [0, π] between F̄_left and F̄_right
   Vec2 direction = Vec2::Zero(); // t (unit, pattern)
   bool into_material = false;    // t lies inside the interior angle at p
-  bool propagate = false;        // Er ≥ Ef and into_material and both clusters non-empty
+  bool griffith = false;         // Er ≥ Ef and both clusters non-empty (whatever t is)
+  bool propagate = false;        // griffith and into_material
   Vec2 next = Vec2::Zero();      // p_next (pattern), only when propagate
 };
 
