@@ -117,30 +117,31 @@ void BM_MaterialForce(benchmark::State& state) {
 }
 BENCHMARK(BM_MaterialForce)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
+// The engine's arrays have spare capacity after their first growth (amortised push_back); a copy has none,
+// and its first push_back would time a reallocation of every array instead of the cut.
+void reserve_for_cuts(Sheet& sheet) {
+  auto spare = [](auto& array, size_t extra) { array.reserve(array.size() + extra); };
+  Triangles& t = sheet.tris;
+  spare(t.tri, 256), spare(t.rest_inv, 256), spare(t.rest_area, 256), spare(t.corner_force, 256);
+  spare(t.region, 256), spare(t.piece, 256), spare(t.side, 256);
+  Vertices& v = sheet.verts;
+  spare(v.x, 256), spare(v.v, 256), spare(v.force, 256), spare(v.rest, 256), spare(v.mass, 256);
+  spare(v.flags, 256), spare(v.tear, 256);
+  Topology& topo = sheet.topo;
+  spare(topo.fans, 256), spare(topo.vt_tri, 2048);
+  spare(topo.boundary_next, 256), spare(topo.boundary_prev, 256);
+  spare(topo.neighbor, 256), spare(topo.edge_hinge, 256), spare(topo.hinges, 256);
+}
+
 // One 5 mm cut from the tip, on a fresh copy each time (the copy and its destruction are not timed).
-// Includes the local topology refresh at its end.
+// Includes the local topology refresh at its end. On finer meshes the 5 mm cross more triangles.
 void BM_RemeshOneCut(benchmark::State& state) {
   BentSheet b = bent_sheet(static_cast<int32_t>(state.range(0)));
   const Vec2 from = b.sheet.verts.rest[b.tip];
   for (auto _ : state) {
     state.PauseTiming();
     Sheet copy = b.sheet;
-    // The engine's arrays have spare capacity after their first growth (amortised push_back); a copy has
-    // none, and its first push_back would time a reallocation of every array instead of the cut.
-    copy.tris.tri.reserve(copy.tris.size() + 256);
-    copy.tris.rest_inv.reserve(copy.tris.size() + 256);
-    copy.tris.rest_area.reserve(copy.tris.size() + 256);
-    copy.tris.corner_force.reserve(copy.tris.size() + 256);
-    copy.tris.region.reserve(copy.tris.size() + 256);
-    copy.tris.piece.reserve(copy.tris.size() + 256);
-    copy.tris.side.reserve(copy.tris.size() + 256);
-    copy.verts.x.reserve(copy.verts.size() + 256);
-    copy.verts.v.reserve(copy.verts.size() + 256);
-    copy.verts.force.reserve(copy.verts.size() + 256);
-    copy.verts.rest.reserve(copy.verts.size() + 256);
-    copy.verts.mass.reserve(copy.verts.size() + 256);
-    copy.verts.flags.reserve(copy.verts.size() + 256);
-    copy.verts.tear.reserve(copy.verts.size() + 256);
+    reserve_for_cuts(copy);
     state.ResumeTiming();
     const CutResult r = cut_tear_segment(b.tip, from + Vec2(0.001, -0.005), Vec2(0, -1), 0, RemeshParams{}, copy);
     benchmark::DoNotOptimize(r);
@@ -150,6 +151,35 @@ void BM_RemeshOneCut(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_RemeshOneCut)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+// A tear advancing from the tip by steps of 0.7 mean edge length, one cut per iteration, as the engine cuts
+// it: the local change per cut is the same at every resolution, so the time per cut should not grow with
+// the sheet (issue 3). The sheet is put back (not timed) before the tip nears the bottom edge.
+void BM_TearAdvance(benchmark::State& state) {
+  BentSheet b = bent_sheet(static_cast<int32_t>(state.range(0)));
+  const double edge = std::sqrt(4 / std::sqrt(3.0) * total_rest_area(b.sheet.tris) / b.sheet.tris.size());
+  const Vec2 direction = Vec2(0.1, -1).normalized();
+  Sheet sheet = b.sheet;
+  reserve_for_cuts(sheet);
+  int32_t tip = b.tip;
+  int64_t cuts = 0;
+  for (auto _ : state) {
+    if (tip < 0 || sheet.verts.rest[tip].y() < 0.1) {
+      state.PauseTiming();
+      sheet = b.sheet;
+      reserve_for_cuts(sheet);
+      tip = b.tip;
+      state.ResumeTiming();
+    }
+    const Vec2 from = sheet.verts.rest[tip];
+    const CutResult r = cut_tear_segment(tip, from + 0.7 * edge * direction, direction, 0, RemeshParams{}, sheet);
+    tip = r.cut && !r.reached_boundary ? r.tip_vertex : -1;
+    cuts += r.cut ? 1 : 0;
+  }
+  state.counters["edge_mm"] = 1e3 * edge;
+  state.counters["cut_fraction"] = static_cast<double>(cuts) / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_TearAdvance)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

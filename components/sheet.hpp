@@ -6,14 +6,15 @@
 //   - triangle corners are valid vertex ids, counter-clockwise in the pattern (rest), positive rest area;
 //   - each undirected edge is shared by at most two triangles; every vertex's triangle fan is connected
 //     (no bow-tie vertex: a tear that touches a vertex duplicates it);
-//   - Topology is derived from Triangles by `build_topology` and is rebuilt after each topology change
-//     (its `version` equals Sheet::topology_version).
+//   - Topology is derived from Triangles by `build_topology` and is rebuilt, or refreshed where a cut changed
+//     it, after each topology change (its `version` equals Sheet::topology_version).
 #pragma once
 
 #include <Eigen/Core>
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -123,16 +124,35 @@ struct Hinge {
   std::array<int32_t, 4> v;
 };
 
-// Derived from Triangles by build_topology (systems/topology.hpp).
+// Derived from Triangles by build_topology (systems/topology.hpp), kept up to date by the local refresh
+// after a cut (refresh_after_local_change) in time that grows with the cut, not with the sheet (issue 3).
 struct Topology {
   uint64_t version = ~uint64_t{0};
-  std::vector<int32_t> vt_offset;                // CSR: triangles of vertex i are
-  std::vector<int32_t> vt_tri;                   //   vt_tri[vt_offset[i] .. vt_offset[i+1]), ascending
+  // Fans: the triangles of vertex i are vt_tri[fans[i].offset .. fans[i].offset + fans[i].count), ascending
+  // (see fan()). Each fan has room for fans[i].capacity ≥ count entries, so a cut rewrites the fans it changes
+  // in place; a fan that outgrows its room moves to the end of vt_tri and leaves vt_unused entries behind
+  // (the pool is compacted when they reach half of it). One record per vertex: a fan costs one cache line
+  // to find, not three, when a cut comes back to a sheet whose physics step has evicted it.
+  struct FanRoom {
+    int32_t offset = 0, count = 0, capacity = 0;
+  };
+  std::vector<FanRoom> fans;
+  std::vector<int32_t> vt_tri;
+  int32_t vt_unused = 0;
   std::vector<std::array<int32_t, 3>> neighbor;  // neighbor[t][i]: triangle across edge (tri[i], tri[i+1]), −1 on the boundary
-  std::vector<Hinge> hinges;                     // interior edges, sorted by (v0, v1)
+  std::vector<std::array<int32_t, 3>> edge_hinge;  // edge_hinge[t][i]: hinge on that edge, −1 on the boundary
+  // Interior edges, each oriented from its lower triangle. build_topology lists them by (min, max) of the
+  // edge; a local refresh puts a cut's new hinges in the slots of the ones it removed (then appends, or
+  // fills holes from the end), so their order depends on the sheet's history, deterministically.
+  std::vector<Hinge> hinges;
   std::vector<int32_t> boundary_next;            // along the boundary, interior on the left; −1 if interior vertex
   std::vector<int32_t> boundary_prev;
   int32_t piece_count = 0;
+
+  std::span<const int32_t> fan(int32_t v) const {
+    return {vt_tri.data() + fans[v].offset, static_cast<size_t>(fans[v].count)};
+  }
+  int32_t vertex_count() const { return static_cast<int32_t>(fans.size()); }
 };
 
 enum class RegionKind : uint8_t { Flat = 0, CurvedPositive = 1, CurvedNegative = 2 };

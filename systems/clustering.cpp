@@ -97,10 +97,9 @@ Eigen::Matrix<double, 2, 3> deformation_pseudo_inverse(const Eigen::Matrix<doubl
 }
 
 double fan_force_sum(const Triangles& tris, const Topology& topo, int32_t p) {
-  if (p < 0 || p + 1 >= static_cast<int32_t>(topo.vt_offset.size())) return 0.0;
+  if (p < 0 || p >= topo.vertex_count()) return 0.0;
   double sum = 0;
-  for (int32_t q = topo.vt_offset[p]; q < topo.vt_offset[p + 1]; ++q) {
-    const int32_t t = topo.vt_tri[q];
+  for (const int32_t t : topo.fan(p)) {
     const int32_t i = corner_of(tris.tri[t], p);
     if (i >= 0) sum += tris.corner_force[t][i].norm();
   }
@@ -110,21 +109,21 @@ double fan_force_sum(const Triangles& tris, const Topology& topo, int32_t p) {
 bool cluster_tip_forces(const Vertices& verts, const Triangles& tris, const Topology& topo, int32_t p,
                         const ClusterParams& params, ForceClusters& out) {
   out = ForceClusters{};
-  if (p < 0 || p >= verts.size() || p + 1 >= static_cast<int32_t>(topo.vt_offset.size())) return false;
+  if (p < 0 || p >= verts.size() || p >= topo.vertex_count()) return false;
   const int32_t next = topo.boundary_next[p], prev = topo.boundary_prev[p];
   if (next < 0 || prev < 0) return false;
-  const int32_t begin = topo.vt_offset[p], end = topo.vt_offset[p + 1];
-  if (begin == end) return false;
+  const std::span<const int32_t> fan = topo.fan(p);
+  if (fan.empty()) return false;
 
   // The fan: f_k is the membrane force of triangle k on p (paper §5.1), f̄_k its pattern pre-image
   // (eq. 5). n: area-weighted normal of the fan, oriented like the pattern.
-  const int32_t count = end - begin;
+  const int32_t count = static_cast<int32_t>(fan.size());
   std::vector<Vec3> f(count);
   std::vector<Vec2> f_pattern(count);
   Vec3 n = Vec3::Zero();
   Vec3 largest = Vec3::Zero();
   for (int32_t k = 0; k < count; ++k) {
-    const int32_t t = topo.vt_tri[begin + k];
+    const int32_t t = fan[k];
     const Tri& c = tris.tri[t];
     const int32_t i = corner_of(c, p);
     f[k] = i >= 0 ? tris.corner_force[t][i] : Vec3::Zero();

@@ -263,8 +263,7 @@ bool integrate_substep(const IntegrateParams& params, const std::vector<int32_t>
       for (int32_t f = b; f < e; ++f) {
         const int32_t v = s.free_vertices[f];
         Vec3 r = (V.mass[v] * inv_h2) * s.y[v];
-        for (int32_t k = sheet.topo.vt_offset[v]; k < sheet.topo.vt_offset[v + 1]; ++k) {
-          const int32_t t = sheet.topo.vt_tri[k];
+        for (const int32_t t : sheet.topo.fan(v)) {
           const Tri& c = T.tri[t];
           const int32_t i = c[0] == v ? 0 : (c[1] == v ? 1 : 2);
           r += s.tri_weight[t] * (s.target[t] * s.tri_grad[t][i]);

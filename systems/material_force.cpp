@@ -18,7 +18,7 @@ DrivingForce crack_driving_force(const Vertices& verts, const Triangles& tris, c
                                  double radius, const MembraneParams& params, DrivingForceScratch& scratch) {
   DrivingForce out;
   const int32_t nv = verts.size();
-  if (p < 0 || p >= nv || !(radius > 0) || static_cast<int32_t>(topo.vt_offset.size()) != nv + 1) return out;
+  if (p < 0 || p >= nv || !(radius > 0) || topo.vertex_count() != nv) return out;
   out.radius = radius;
   const std::vector<Vec2>& rest = verts.rest;
   const Vec2 center = rest[p];
@@ -45,8 +45,7 @@ DrivingForce crack_driving_force(const Vertices& verts, const Triangles& tris, c
   scratch.weight[p] = 1.0;
   for (size_t head = 0; head < queue.size(); ++head) {
     const int32_t v = queue[head];
-    for (int32_t k = topo.vt_offset[v]; k < topo.vt_offset[v + 1]; ++k) {
-      const int32_t t = topo.vt_tri[k];
+    for (const int32_t t : topo.fan(v)) {
       domain.push_back(t);
       for (int32_t c : tris.tri[t]) {
         if (scratch.stamp[c] == call) continue;

@@ -202,8 +202,7 @@ void gather_corner_forces(const Topology& topo, const std::vector<Tri>& tri,
                           std::vector<Vec3>& vertex_force) {
   for (int32_t v = begin; v < end; ++v) {
     Vec3 sum = Vec3::Zero();
-    for (int32_t k = topo.vt_offset[v]; k < topo.vt_offset[v + 1]; ++k) {
-      const int32_t t = topo.vt_tri[k];
+    for (const int32_t t : topo.fan(v)) {
       const Tri& c = tri[t];
       const int32_t i = c[0] == v ? 0 : (c[1] == v ? 1 : 2);
       sum += corner_force[t][i];

@@ -130,13 +130,13 @@ RegionSummary classify_regions(const std::vector<Vec3>& x, const std::vector<Tri
   summary.regions = static_cast<int32_t>(regions.size());
   for (int32_t v = 0; v < nv; ++v) {
     flags[v] &= static_cast<uint8_t>(~(kJunction | kSingular));
-    const int32_t b = topo.vt_offset[v], e = topo.vt_offset[v + 1];
-    if (b == e) continue;
+    const std::span<const int32_t> fan = topo.fan(v);
+    if (fan.empty()) continue;
     if (topo.boundary_next[v] >= 0) {
       // Junction: the boundary vertex's fan touches regions of different kind (flat/curved or signs).
-      const RegionKind k0 = regions[tri_region[topo.vt_tri[b]]].kind;
+      const RegionKind k0 = regions[tri_region[fan[0]]].kind;
       bool mixed = false;
-      for (int32_t k = b + 1; k < e && !mixed; ++k) mixed = regions[tri_region[topo.vt_tri[k]]].kind != k0;
+      for (size_t k = 1; k < fan.size() && !mixed; ++k) mixed = regions[tri_region[fan[k]]].kind != k0;
       if (mixed) {
         flags[v] |= kJunction;
         ++summary.junctions;
@@ -144,11 +144,11 @@ RegionSummary classify_regions(const std::vector<Vec3>& x, const std::vector<Tri
     } else {
       // Interior singular point: bending concentrated at this vertex (a cone apex).
       double peak = 0;
-      for (int32_t k = b; k < e; ++k) peak = std::max(peak, std::abs(bending[topo.vt_tri[k]]));
+      for (int32_t t : fan) peak = std::max(peak, std::abs(bending[t]));
       if (peak > params.singular_curvature) {
         flags[v] |= kSingular;
         ++summary.singular;
-        const int32_t r = tri_region[topo.vt_tri[b]];
+        const int32_t r = tri_region[fan[0]];
         if (regions[r].apex < 0) regions[r].apex = v;
       }
     }

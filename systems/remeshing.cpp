@@ -119,8 +119,8 @@ struct Cut {
   IdList fan(int32_t v) const {
     IdList f;
     if (v < n0)
-      for (int32_t k = topo.vt_offset[v]; k < topo.vt_offset[v + 1]; ++k)
-        if (contains(tri(topo.vt_tri[k]), v)) f.push_back(topo.vt_tri[k]);
+      for (int32_t t : topo.fan(v))
+        if (contains(tri(t), v)) f.push_back(t);
     for (int32_t t : touched)
       if (contains(tri(t), v)) f.push_back(t);
     f.sort_unique();
@@ -398,7 +398,7 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
   Topology local;
   const Topology* topo = &sheet.topo;
   if (sheet.topo.version != sheet.topology_version ||
-      static_cast<int32_t>(sheet.topo.vt_offset.size()) != sheet.verts.size() + 1) {
+      sheet.topo.vertex_count() != sheet.verts.size()) {
     std::vector<int32_t> piece;
     build_topology(sheet.tris.tri, sheet.verts.size(), local, piece);
     topo = &local;
@@ -680,8 +680,8 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
   for (const auto& [before, now] : vertex_moves) {
     std::vector<int32_t> holders;
     if (before < C.n0)
-      for (int32_t k = C.topo.vt_offset[before]; k < C.topo.vt_offset[before + 1]; ++k)
-        if (const int32_t t = tri_now(C.topo.vt_tri[k]); t >= 0) holders.push_back(t);
+      for (int32_t old : C.topo.fan(before))
+        if (const int32_t t = tri_now(old); t >= 0) holders.push_back(t);
     holders.insert(holders.end(), changed.begin(), changed.end());
     for (int32_t t : holders)
       for (int32_t& c : T.tri[t])

@@ -68,20 +68,27 @@ int32_t flood_fill_pieces(const std::vector<std::array<int32_t, 3>>& neighbor, s
 void build_topology(const std::vector<Tri>& tri, int32_t vertex_count, Topology& topo,
                     std::vector<int32_t>& piece) {
   const int32_t nt = static_cast<int32_t>(tri.size());
-  // Vertex → triangle CSR, ascending triangle ids per vertex.
-  topo.vt_offset.assign(vertex_count + 1, 0);
+  // Vertex → triangle fans, ascending triangle ids per vertex, each with kFanSlack spare entries.
+  topo.fans.assign(vertex_count, Topology::FanRoom{});
   for (const Tri& t : tri)
-    for (int32_t c : t) ++topo.vt_offset[c + 1];
-  for (int32_t i = 0; i < vertex_count; ++i) topo.vt_offset[i + 1] += topo.vt_offset[i];
-  topo.vt_tri.assign(topo.vt_offset[vertex_count], -1);
+    for (int32_t c : t) ++topo.fans[c].count;
+  int32_t pool = 0;
+  for (Topology::FanRoom& f : topo.fans) {
+    f.offset = pool;
+    f.capacity = f.count + kFanSlack;
+    pool += f.capacity;
+  }
+  topo.vt_tri.assign(pool, -1);
+  topo.vt_unused = 0;
   {
-    std::vector<int32_t> fill(topo.vt_offset.begin(), topo.vt_offset.end() - 1);
+    std::vector<int32_t> fill(vertex_count);
+    for (int32_t i = 0; i < vertex_count; ++i) fill[i] = topo.fans[i].offset;
     for (int32_t t = 0; t < nt; ++t)
       for (int32_t c : tri[t]) topo.vt_tri[fill[c]++] = t;
   }
   // Half-edges in (lo, hi, t, i) order pair up neighbours. Bucketed by their lower vertex (counting sort,
   // filled in (t, i) order) and each short bucket sorted by hi: the order of one global sort, in linear time
-  // but for the buckets — this runs after every cut (remeshing), so it is on the tearing path.
+  // but for the buckets (this runs after meshing and each finger's vertex insertion).
   struct HalfEdge {
     int32_t lo, hi, t, i;
   };
@@ -106,6 +113,7 @@ void build_topology(const std::vector<Tri>& tri, int32_t vertex_count, Topology&
       he[j] = e;
     }
   topo.neighbor.assign(nt, {-1, -1, -1});
+  topo.edge_hinge.assign(nt, {-1, -1, -1});
   topo.hinges.clear();
   for (size_t k = 0; k < he.size();) {
     size_t m = k + 1;
@@ -115,6 +123,8 @@ void build_topology(const std::vector<Tri>& tri, int32_t vertex_count, Topology&
       const HalfEdge& e1 = he[k + 1];
       topo.neighbor[e0.t][e0.i] = e1.t;
       topo.neighbor[e1.t][e1.i] = e0.t;
+      topo.edge_hinge[e0.t][e0.i] = static_cast<int32_t>(topo.hinges.size());
+      topo.edge_hinge[e1.t][e1.i] = static_cast<int32_t>(topo.hinges.size());
       // Orient the hinge so v0→v1 is counter-clockwise in the triangle holding v2.
       const int32_t a0 = tri[e0.t][e0.i], b0 = tri[e0.t][(e0.i + 1) % 3];
       const int32_t opp0 = tri[e0.t][(e0.i + 2) % 3];
@@ -177,31 +187,75 @@ void refresh_after_topology_change(Sheet& sheet) {
 
 namespace {
 // Buffers of the local refresh, kept per thread between cuts: a cut runs every few frames and its refresh
-// would otherwise spend more on allocation than on the change itself (small sheets), or fault in fresh
-// pages for the fan and hinge arrays (big ones).
+// would otherwise spend more on allocation than on the change itself.
 struct LocalRefreshScratch {
-  std::vector<char> mark;
-  std::vector<int32_t> fan_flat, fan_start, around, offset, vt;
-  std::vector<Hinge> merged;
+  std::vector<uint32_t> stamp;  // stamp[v] == generation: v is affected (no search per edge)
+  uint32_t generation = 0;
+  std::vector<int32_t> fan, around, dropped;
+  struct HalfEdge {
+    int32_t lo, hi, t, i;
+  };
+  std::vector<HalfEdge> half_edges;
 };
+
+// Writes `fan` as vertex v's fan: in place when it fits its room, else at the end of the pool.
+void store_fan(int32_t v, const std::vector<int32_t>& fan, Topology& topo) {
+  Topology::FanRoom& room = topo.fans[v];
+  const int32_t count = static_cast<int32_t>(fan.size());
+  if (count > room.capacity) {
+    topo.vt_unused += room.capacity;
+    room.offset = static_cast<int32_t>(topo.vt_tri.size());
+    room.capacity = count + kFanSlack;
+    topo.vt_tri.resize(topo.vt_tri.size() + room.capacity, -1);
+  }
+  std::copy(fan.begin(), fan.end(), topo.vt_tri.begin() + room.offset);
+  room.count = count;
+}
+
+// Index of the edge (a, b), either way round, in triangle t; −1 if t has no such edge.
+int edge_index(const Tri& t, int32_t a, int32_t b) {
+  for (int i = 0; i < 3; ++i) {
+    const int32_t x = t[i], y = t[(i + 1) % 3];
+    if ((x == a && y == b) || (x == b && y == a)) return i;
+  }
+  return -1;
+}
 }  // namespace
+
+void compact_fans(Topology& topo) {
+  std::vector<int32_t> pool;
+  pool.reserve(topo.vt_tri.size() - topo.vt_unused);
+  for (Topology::FanRoom& room : topo.fans) {
+    const int32_t first = room.offset;
+    room.offset = static_cast<int32_t>(pool.size());
+    pool.insert(pool.end(), topo.vt_tri.begin() + first, topo.vt_tri.begin() + first + room.capacity);
+  }
+  topo.vt_tri.assign(pool.begin(), pool.end());
+  topo.vt_unused = 0;
+}
 
 void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet) {
   Vertices& V = sheet.verts;
   Triangles& T = sheet.tris;
   Topology& topo = sheet.topo;
   const int32_t nv = V.size(), nt = T.size();
-  const int32_t nv_before = static_cast<int32_t>(topo.vt_offset.size()) - 1;
-  if (topo.version != sheet.topology_version || nv_before < 0 ||
-      static_cast<int32_t>(topo.boundary_next.size()) != nv_before) {
+  const int32_t nv_before = topo.vertex_count();
+  const int32_t nt_before = static_cast<int32_t>(topo.neighbor.size());
+  if (topo.version != sheet.topology_version || static_cast<int32_t>(topo.boundary_next.size()) != nv_before ||
+      static_cast<int32_t>(topo.edge_hinge.size()) != nt_before) {
     refresh_after_topology_change(sheet);
     return;
   }
   const std::vector<int32_t>& A = change.vertices;  // affected vertices, ascending
   thread_local LocalRefreshScratch scratch;
-  std::vector<char>& mark = scratch.mark;  // one byte per vertex: no search per hinge
-  mark.assign(std::max(nv, nv_before), 0);
-  for (int32_t v : A) mark[v] = 1;
+  if (scratch.stamp.size() < static_cast<size_t>(std::max(nv, nv_before))) scratch.stamp.resize(std::max(nv, nv_before), 0);
+  if (++scratch.generation == 0) {  // wrapped: forget every old stamp
+    std::fill(scratch.stamp.begin(), scratch.stamp.end(), 0);
+    scratch.generation = 1;
+  }
+  const uint32_t generation = scratch.generation;
+  for (int32_t v : A) scratch.stamp[v] = generation;
+  auto affected = [&](int32_t v) { return scratch.stamp[v] == generation; };
   auto contains = [](const Tri& t, int32_t v) { return t[0] == v || t[1] == v || t[2] == v; };
   // A triangle id of the topology before the change → its id now (−1: removed).
   auto tri_now = [&](int32_t t) {
@@ -218,122 +272,116 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   T.rest_area.resize(nt);
   for (int32_t t : change.triangles) rest_data_of(V.rest, T.tri[t], T.rest_inv[t], T.rest_area[t]);
 
-  // Fans: the affected vertices' from their old fan and the changed triangles; runs of unaffected vertices
-  // copied as blocks (their fans hold no changed, moved or removed triangle).
-  std::vector<int32_t>& fan_flat = scratch.fan_flat;  // fan of A[k] at [fan_start[k], fan_start[k + 1])
-  std::vector<int32_t>& fan_start = scratch.fan_start;
-  fan_flat.clear();
-  fan_start.assign(1, 0);
-  for (const int32_t v : A) {
-    const auto first = static_cast<std::ptrdiff_t>(fan_flat.size());
-    if (v < nv_before)
-      for (int32_t q = topo.vt_offset[v]; q < topo.vt_offset[v + 1]; ++q)
-        if (const int32_t t = tri_now(topo.vt_tri[q]); t >= 0 && t < nt && contains(T.tri[t], v)) fan_flat.push_back(t);
-    for (int32_t t : change.triangles)
-      if (contains(T.tri[t], v)) fan_flat.push_back(t);
-    std::sort(fan_flat.begin() + first, fan_flat.end());
-    fan_flat.erase(std::unique(fan_flat.begin() + first, fan_flat.end()), fan_flat.end());
-    fan_start.push_back(static_cast<int32_t>(fan_flat.size()));
-  }
-  std::vector<int32_t>& offset = scratch.offset;
-  std::vector<int32_t>& vt = scratch.vt;
-  offset.assign(nv + 1, 0);
-  vt.clear();
-  vt.reserve(topo.vt_tri.size() + 3 * change.triangles.size());
-  {
-    int32_t v = 0;
-    size_t k = 0;
-    while (v < nv) {
-      const int32_t run_end = k < A.size() ? std::min(A[k], nv) : nv;  // [v, run_end) unaffected
-      if (run_end > v) {
-        const int32_t first = topo.vt_offset[v], last = topo.vt_offset[run_end];
-        const int32_t delta = static_cast<int32_t>(vt.size()) - first;
-        vt.insert(vt.end(), topo.vt_tri.begin() + first, topo.vt_tri.begin() + last);
-        for (int32_t u = v; u < run_end; ++u) offset[u + 1] = topo.vt_offset[u + 1] + delta;
-        v = run_end;
-      }
-      if (k < A.size() && v == A[k]) {
-        vt.insert(vt.end(), fan_flat.begin() + fan_start[k], fan_flat.begin() + fan_start[k + 1]);
-        offset[v + 1] = static_cast<int32_t>(vt.size());
-        ++v;
-        ++k;
+  // Hinges the change removes: every hinge at an affected vertex, and at the ids past the new end (removed
+  // vertices, or the old ids of the ones moved into their slots), found through the old fans and edges. An
+  // old triangle the change left alone still has its corners; only for the few it rewrote, removed or moved
+  // is the hinge's own edge read.
+  std::vector<int32_t>& dropped = scratch.dropped;
+  dropped.clear();
+  auto rewritten = [&](int32_t t) {
+    return std::binary_search(change.triangles.begin(), change.triangles.end(), t) ||
+           std::binary_search(change.dead_triangles.begin(), change.dead_triangles.end(), t) ||
+           std::any_of(change.moved_triangles.begin(), change.moved_triangles.end(), [t](const auto& m) { return m.first == t; });
+  };
+  auto drop_hinges_at = [&](int32_t v) {
+    for (int32_t t : topo.fan(v)) {
+      const bool same = !rewritten(t);
+      for (int32_t i = 0; i < 3; ++i) {
+        const int32_t h = topo.edge_hinge[t][i];
+        if (h < 0) continue;
+        const bool at_v = same ? (T.tri[t][i] == v || T.tri[t][(i + 1) % 3] == v)
+                               : (topo.hinges[h].v[0] == v || topo.hinges[h].v[1] == v);
+        if (at_v) dropped.push_back(h);
       }
     }
-  }
-  // Copied, not swapped: the sheet keeps its own buffers (their capacity then depends only on its history,
-  // not on which thread's scratch it met, so batch memory figures are the same at any thread count).
-  topo.vt_offset.assign(offset.begin(), offset.end());
-  topo.vt_tri.assign(vt.begin(), vt.end());
-  auto fan_begin = [&](int32_t v) { return topo.vt_tri.begin() + topo.vt_offset[v]; };
-  auto fan_end = [&](int32_t v) { return topo.vt_tri.begin() + topo.vt_offset[v + 1]; };
+  };
+  for (int32_t v : A)
+    if (v < nv_before) drop_hinges_at(v);
+  for (int32_t v = nv; v < nv_before; ++v) drop_hinges_at(v);
+  std::sort(dropped.begin(), dropped.end());
+  dropped.erase(std::unique(dropped.begin(), dropped.end()), dropped.end());
 
-  // Neighbours of every triangle around an affected vertex (an edge pairs exactly two triangles, as in
-  // build_topology; more stay unpaired).
+  // Fans: an affected vertex's fan is its old fan (renamed, without the removed triangles and those that let
+  // go of it) plus the changed triangles that hold it. The others hold no changed, moved or removed triangle.
+  for (int32_t v = nv; v < nv_before; ++v) topo.vt_unused += topo.fans[v].capacity;
+  topo.fans.resize(nv);
+  std::vector<int32_t>& fan = scratch.fan;
+  for (const int32_t v : A) {
+    fan.clear();
+    if (v < nv_before)
+      for (int32_t old : topo.fan(v))
+        if (const int32_t t = tri_now(old); t >= 0 && t < nt && contains(T.tri[t], v)) fan.push_back(t);
+    for (int32_t t : change.triangles)
+      if (contains(T.tri[t], v)) fan.push_back(t);
+    std::sort(fan.begin(), fan.end());
+    fan.erase(std::unique(fan.begin(), fan.end()), fan.end());
+    store_fan(v, fan, topo);
+  }
+  if (topo.vt_unused > 64 && 2 * static_cast<size_t>(topo.vt_unused) > topo.vt_tri.size()) compact_fans(topo);
+
+  // Neighbours and hinges across the edges at an affected vertex: both triangles of such an edge are around
+  // an affected vertex, so pairing the half-edges of those triangles finds them all (an edge pairs exactly two
+  // triangles, as in build_topology; more stay unpaired). The other edges, and every triangle away from the
+  // change, keep their neighbours and hinges: they are the same triangles under the same ids.
   topo.neighbor.resize(nt, {-1, -1, -1});
+  topo.edge_hinge.resize(nt, {-1, -1, -1});
   std::vector<int32_t>& around = scratch.around;
   around.clear();
-  for (int32_t v : A) around.insert(around.end(), fan_begin(v), fan_end(v));
+  for (int32_t v : A) around.insert(around.end(), topo.fan(v).begin(), topo.fan(v).end());
   std::sort(around.begin(), around.end());
   around.erase(std::unique(around.begin(), around.end()), around.end());
+  auto& he = scratch.half_edges;
+  he.clear();
   for (int32_t t : around)
     for (int32_t i = 0; i < 3; ++i) {
       const int32_t a = T.tri[t][i], b = T.tri[t][(i + 1) % 3];
-      int32_t other = -1, count = 0;
-      for (auto it = fan_begin(a); it != fan_end(a); ++it)
-        if (contains(T.tri[*it], b)) {
-          ++count;
-          if (*it != t) other = *it;
-        }
-      topo.neighbor[t][i] = count == 2 ? other : -1;
+      if (affected(a) || affected(b)) he.push_back({std::min(a, b), std::max(a, b), t, i});
     }
-
-  // Hinges: the old ones away from the change kept in order, the ones on edges at an affected vertex
-  // rebuilt (oriented from the lower triangle, as build_topology does), merged by (min, max) of the edge.
-  struct Keyed {
-    int32_t lo, hi;
-    Hinge h;
-  };
-  std::vector<Keyed> fresh;
-  for (int32_t a : A)
-    for (auto it = fan_begin(a); it != fan_end(a); ++it) {
-      const int32_t t0 = *it;
-      for (int32_t i = 0; i < 3; ++i) {
-        const int32_t x = T.tri[t0][i], y = T.tri[t0][(i + 1) % 3];
-        if (x != a && y != a) continue;
-        const int32_t t1 = topo.neighbor[t0][i];
-        if (t1 < 0 || t1 < t0) continue;  // boundary, or listed from the lower triangle
-        int32_t j = 0;
-        while (!(T.tri[t1][j] == y && T.tri[t1][(j + 1) % 3] == x) && !(T.tri[t1][j] == x && T.tri[t1][(j + 1) % 3] == y)) ++j;
-        fresh.push_back({std::min(x, y), std::max(x, y), Hinge{{x, y, T.tri[t0][(i + 2) % 3], T.tri[t1][(j + 2) % 3]}}});
+  // By edge, then triangle: the hinges come out in (min, max) order, each oriented from its lower triangle.
+  std::sort(he.begin(), he.end(), [](const auto& p, const auto& q) {
+    return p.lo != q.lo ? p.lo < q.lo : (p.hi != q.hi ? p.hi < q.hi : (p.t != q.t ? p.t < q.t : p.i < q.i));
+  });
+  size_t fresh = 0;  // hinges placed so far: they take the dropped slots in ascending order, then the end
+  for (size_t k = 0; k < he.size();) {
+    size_t m = k + 1;
+    while (m < he.size() && he[m].lo == he[k].lo && he[m].hi == he[k].hi) ++m;
+    if (m - k == 2) {
+      const auto& e0 = he[k];
+      const auto& e1 = he[k + 1];
+      topo.neighbor[e0.t][e0.i] = e1.t;
+      topo.neighbor[e1.t][e1.i] = e0.t;
+      const Tri& q0 = T.tri[e0.t];
+      const Hinge h{{q0[e0.i], q0[(e0.i + 1) % 3], q0[(e0.i + 2) % 3], T.tri[e1.t][(e1.i + 2) % 3]}};
+      int32_t slot;
+      if (fresh < dropped.size()) {
+        slot = dropped[fresh];
+        topo.hinges[slot] = h;
+      } else {
+        slot = static_cast<int32_t>(topo.hinges.size());
+        topo.hinges.push_back(h);
+      }
+      ++fresh;
+      topo.edge_hinge[e0.t][e0.i] = slot;
+      topo.edge_hinge[e1.t][e1.i] = slot;
+    } else {
+      for (size_t j = k; j < m; ++j) {
+        topo.neighbor[he[j].t][he[j].i] = -1;
+        topo.edge_hinge[he[j].t][he[j].i] = -1;
       }
     }
-  std::sort(fresh.begin(), fresh.end(), [](const Keyed& p, const Keyed& q) { return p.lo != q.lo ? p.lo < q.lo : p.hi < q.hi; });
-  fresh.erase(std::unique(fresh.begin(), fresh.end(), [](const Keyed& p, const Keyed& q) { return p.lo == q.lo && p.hi == q.hi; }),
-              fresh.end());
-  {
-    // Kept hinges are copied in runs (a memory-speed copy); a run ends at a dropped hinge or where a fresh
-    // one goes in.
-    std::vector<Hinge>& out = scratch.merged;
-    out.clear();
-    out.reserve(topo.hinges.size() + fresh.size());
-    const std::vector<Hinge>& old = topo.hinges;
-    const size_t n_old = old.size();
-    size_t f = 0, run = 0;
-    for (size_t k = 0; k < n_old; ++k) {
-      const Hinge& h = old[k];
-      const int32_t lo = std::min(h.v[0], h.v[1]), hi = std::max(h.v[0], h.v[1]);
-      const bool keep = hi < nv && !mark[lo] && !mark[hi];
-      const bool insert_before = keep && f < fresh.size() && (fresh[f].lo < lo || (fresh[f].lo == lo && fresh[f].hi < hi));
-      if (!keep || insert_before) {
-        out.insert(out.end(), old.begin() + run, old.begin() + k);
-        run = keep ? k : k + 1;
-        while (insert_before && f < fresh.size() && (fresh[f].lo < lo || (fresh[f].lo == lo && fresh[f].hi < hi)))
-          out.push_back(fresh[f++].h);
-      }
+    k = m;
+  }
+  // Dropped slots left over: filled from the end, highest first (a slot above is already settled). A hinge
+  // moved that way is away from the change, so its two triangles are found in its first vertex's fan.
+  for (size_t k = dropped.size(); k-- > fresh;) {
+    const int32_t slot = dropped[k], last = static_cast<int32_t>(topo.hinges.size()) - 1;
+    if (slot != last) {
+      const Hinge h = topo.hinges[last];
+      topo.hinges[slot] = h;
+      for (int32_t t : topo.fan(h.v[0]))
+        if (const int i = edge_index(T.tri[t], h.v[0], h.v[1]); i >= 0) topo.edge_hinge[t][i] = slot;
     }
-    out.insert(out.end(), old.begin() + run, old.end());
-    while (f < fresh.size()) out.push_back(fresh[f++].h);
-    topo.hinges.assign(out.begin(), out.end());
+    topo.hinges.pop_back();
   }
 
   // Boundary links, masses and flags of the affected vertices (in fan order: the same last-wins and
@@ -344,8 +392,7 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   for (int32_t v : A) {
     int32_t next = -1, prev = -1;
     double mass = 0.0;
-    for (auto it = fan_begin(v); it != fan_end(v); ++it) {
-      const int32_t t = *it;
+    for (int32_t t : topo.fan(v)) {
       const int32_t i = T.tri[t][0] == v ? 0 : (T.tri[t][1] == v ? 1 : 2);
       if (topo.neighbor[t][i] < 0) next = T.tri[t][(i + 1) % 3];
       const int32_t j = (i + 2) % 3;
@@ -449,12 +496,11 @@ std::string check_mesh_invariants(const Sheet& sheet, double expected_area) {
   std::vector<int32_t> piece;
   build_topology(T.tri, nv, topo, piece);
   for (int32_t v = 0; v < nv; ++v) {
-    const int32_t b = topo.vt_offset[v], e = topo.vt_offset[v + 1];
-    if (b == e) {
+    if (topo.fans[v].count == 0) {
       err << "vertex " << v << " belongs to no triangle";
       return err.str();
     }
-    std::vector<int32_t> fan(topo.vt_tri.begin() + b, topo.vt_tri.begin() + e);
+    std::vector<int32_t> fan(topo.fan(v).begin(), topo.fan(v).end());
     std::vector<char> seen(fan.size(), 0);
     std::vector<int32_t> stack{0};
     seen[0] = 1;
@@ -494,13 +540,56 @@ std::string check_mesh_invariants(const Sheet& sheet, double expected_area) {
   if (sheet.topo.version == sheet.topology_version) {
     const Topology& cur = sheet.topo;
     const char* what = nullptr;
-    if (cur.vt_offset != topo.vt_offset || cur.vt_tri != topo.vt_tri) what = "vertex fans";
-    else if (cur.neighbor != topo.neighbor) what = "triangle neighbours";
-    else if (cur.boundary_next != topo.boundary_next || cur.boundary_prev != topo.boundary_prev) what = "boundary links";
-    else if (cur.piece_count != topo.piece_count || T.piece != piece) what = "pieces";
-    else if (cur.hinges.size() != topo.hinges.size()) what = "hinge count";
-    for (size_t h = 0; !what && h < topo.hinges.size(); ++h)
-      if (cur.hinges[h].v != topo.hinges[h].v) what = "hinges";
+    if (cur.vertex_count() != nv) what = "vertex fans";
+    for (int32_t v = 0; !what && v < nv; ++v)
+      if (!std::ranges::equal(cur.fan(v), topo.fan(v))) what = "vertex fans";
+    if (!what) {
+      // The pool: every fan inside it and within its room, the rooms disjoint, the rest counted as unused.
+      std::vector<std::pair<int32_t, int32_t>> rooms;
+      for (const Topology::FanRoom& room : cur.fans) rooms.push_back({room.offset, room.capacity});
+      std::sort(rooms.begin(), rooms.end());
+      int64_t used = 0, end = 0;
+      for (const Topology::FanRoom& room : cur.fans)
+        if (room.count > room.capacity) what = "fan rooms";
+      for (const auto& [first, capacity] : rooms) {
+        if (first < end) what = "fan rooms";
+        end = static_cast<int64_t>(first) + capacity;
+        used += capacity;
+      }
+      if (end > static_cast<int64_t>(cur.vt_tri.size()) ||
+          used + cur.vt_unused != static_cast<int64_t>(cur.vt_tri.size()))
+        what = "fan rooms";
+    }
+    if (what) {
+    } else if (cur.neighbor != topo.neighbor) {
+      what = "triangle neighbours";
+    } else if (cur.boundary_next != topo.boundary_next || cur.boundary_prev != topo.boundary_prev) {
+      what = "boundary links";
+    } else if (cur.piece_count != topo.piece_count || T.piece != piece) {
+      what = "pieces";
+    } else if (cur.hinges.size() != topo.hinges.size()) {
+      what = "hinge count";
+    }
+    if (!what) {
+      // The same hinges (with their orientation and opposite vertices), in any order, and each triangle edge
+      // pointing at the hinge on it.
+      auto key = [](const Hinge& h) { return std::pair(std::min(h.v[0], h.v[1]), std::max(h.v[0], h.v[1])); };
+      std::vector<Hinge> sorted = cur.hinges;
+      std::sort(sorted.begin(), sorted.end(), [&](const Hinge& p, const Hinge& q) { return key(p) < key(q); });
+      for (size_t h = 0; !what && h < topo.hinges.size(); ++h)
+        if (sorted[h].v != topo.hinges[h].v) what = "hinges";
+      if (static_cast<int32_t>(cur.edge_hinge.size()) != nt) what = "edge hinges";
+      for (int32_t t = 0; !what && t < nt; ++t)
+        for (int32_t i = 0; i < 3 && !what; ++i) {
+          const int32_t h = cur.edge_hinge[t][i];
+          const Tri& q = T.tri[t];
+          if (cur.neighbor[t][i] < 0 ? h != -1
+                                     : (h < 0 || h >= static_cast<int32_t>(cur.hinges.size()) ||
+                                        key(cur.hinges[h]) != std::pair(std::min(q[i], q[(i + 1) % 3]),
+                                                                        std::max(q[i], q[(i + 1) % 3]))))
+            what = "edge hinges";
+        }
+    }
     if (!what) {
       std::vector<Mat2> inv;
       std::vector<double> area;

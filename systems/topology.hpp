@@ -17,6 +17,10 @@ void update_rest_data(const std::vector<Vec2>& rest, const std::vector<Tri>& tri
 void lump_masses(const std::vector<Tri>& tri, const std::vector<double>& rest_area,
                  const Material& material, std::vector<double>& mass);
 
+// Spare entries given to each vertex fan by build_topology: a cut's edge split adds one triangle to a fan
+// (its lip duplicates take triangles away), so most fans it changes are rewritten in place.
+constexpr int32_t kFanSlack = 2;
+
 // Fans, neighbours, hinges, boundary next/prev and connected pieces (written to `piece`, numbered in
 // order of their lowest triangle so the numbering does not depend on anything but the triangle list).
 void build_topology(const std::vector<Tri>& tri, int32_t vertex_count, Topology& topo,
@@ -42,12 +46,18 @@ struct LocalTopologyChange {
   bool pieces_may_split = false;   // a tear reached the boundary: the sheet may have parted
 };
 
-// Same result as refresh_after_topology_change, bit for bit, in time that grows with the size of the change
-// (plus a few memory-speed copies of the per-vertex and per-hinge arrays): a cut rewrites a handful of
-// triangles, and rebuilding every fan, hinge and flag after each one made the cut linear in the sheet
-// (issue 3: the tearing step's cost grows with the local mesh size). Falls back to the full refresh when
-// sheet.topo is not the topology of the sheet before the change.
+// The same topology as refresh_after_topology_change (fans, neighbours, boundary links, pieces, rest data,
+// masses and flags bit for bit; the same hinges, in another order, see Topology::hinges), in time that
+// grows with the size of the change: a cut rewrites a handful of triangles, and rebuilding every fan, hinge
+// and flag after each one made the cut linear in the sheet (issue 3: the tearing step's cost grows with the
+// local mesh size). Only two things still visit the whole sheet: a cut that reaches the boundary floods the
+// pieces again (the sheet may have parted), and once a sheet has several pieces their numbering is checked.
+// Falls back to the full refresh when sheet.topo is not the topology of the sheet before the change.
 void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet);
+
+// Lays the fans out again without the entries that moved fans left behind (Topology::vt_unused); fan order and
+// contents unchanged. The local refresh calls it once they reach half of the pool.
+void compact_fans(Topology& topo);
 
 // DESIGN §5.5 invariants. Returns an empty string when they hold, else a description of the first
 // violation. `expected_area` < 0 skips the area check.
