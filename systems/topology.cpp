@@ -190,12 +190,20 @@ namespace {
 // would otherwise spend more on allocation than on the change itself.
 struct LocalRefreshScratch {
   std::vector<uint32_t> stamp;  // stamp[v] == generation: v is affected (no search per edge)
+  // tri_stamp[t] == generation: old triangle t was rewritten, removed or moved; tri_now[t] is its id now
+  // (−1 removed; itself when rewritten in place).
+  std::vector<uint32_t> tri_stamp;
+  std::vector<int32_t> tri_now;
   uint32_t generation = 0;
   std::vector<int32_t> fan, around, dropped;
   struct HalfEdge {
     int32_t lo, hi, t, i;
+    int32_t first;  // the first half-edge listed on the same edge (itself if it is the first)
+    int32_t twin;   // on the first: the second half-edge of its edge, −1 if none yet
+    int32_t count;  // on the first: how many half-edges the edge has
   };
   std::vector<HalfEdge> half_edges;
+  std::vector<int32_t> edge_table;  // open addressing on (lo, hi) → first half-edge, −1 empty
 };
 
 // Writes `fan` as vertex v's fan: in place when it fits its room, else at the end of the pool.
@@ -249,21 +257,32 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   const std::vector<int32_t>& A = change.vertices;  // affected vertices, ascending
   thread_local LocalRefreshScratch scratch;
   if (scratch.stamp.size() < static_cast<size_t>(std::max(nv, nv_before))) scratch.stamp.resize(std::max(nv, nv_before), 0);
+  if (scratch.tri_stamp.size() < static_cast<size_t>(nt_before)) {
+    scratch.tri_stamp.resize(nt_before, 0);
+    scratch.tri_now.resize(nt_before, -1);
+  }
   if (++scratch.generation == 0) {  // wrapped: forget every old stamp
     std::fill(scratch.stamp.begin(), scratch.stamp.end(), 0);
+    std::fill(scratch.tri_stamp.begin(), scratch.tri_stamp.end(), 0);
     scratch.generation = 1;
   }
   const uint32_t generation = scratch.generation;
   for (int32_t v : A) scratch.stamp[v] = generation;
   auto affected = [&](int32_t v) { return scratch.stamp[v] == generation; };
   auto contains = [](const Tri& t, int32_t v) { return t[0] == v || t[1] == v || t[2] == v; };
-  // A triangle id of the topology before the change → its id now (−1: removed).
-  auto tri_now = [&](int32_t t) {
-    if (std::binary_search(change.dead_triangles.begin(), change.dead_triangles.end(), t)) return -1;
-    for (const auto& m : change.moved_triangles)
-      if (m.first == t) return m.second;
-    return t;
+  // Old triangles the change touched: rewritten in place (their slot is a changed triangle), moved, removed.
+  auto mark_old = [&](int32_t t, int32_t now) {
+    if (t < nt_before) {
+      scratch.tri_stamp[t] = generation;
+      scratch.tri_now[t] = now;
+    }
   };
+  for (int32_t t : change.triangles) mark_old(t, t);
+  for (const auto& m : change.moved_triangles) mark_old(m.first, m.second);
+  for (int32_t t : change.dead_triangles) mark_old(t, -1);
+  auto rewritten = [&](int32_t t) { return scratch.tri_stamp[t] == generation; };
+  // A triangle id of the topology before the change → its id now (−1: removed).
+  auto tri_now = [&](int32_t t) { return rewritten(t) ? scratch.tri_now[t] : t; };
 
   T.corner_force.resize(nt, {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()});
   T.region.resize(nt, -1);
@@ -278,11 +297,6 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   // is the hinge's own edge read.
   std::vector<int32_t>& dropped = scratch.dropped;
   dropped.clear();
-  auto rewritten = [&](int32_t t) {
-    return std::binary_search(change.triangles.begin(), change.triangles.end(), t) ||
-           std::binary_search(change.dead_triangles.begin(), change.dead_triangles.end(), t) ||
-           std::any_of(change.moved_triangles.begin(), change.moved_triangles.end(), [t](const auto& m) { return m.first == t; });
-  };
   auto drop_hinges_at = [&](int32_t v) {
     for (int32_t t : topo.fan(v)) {
       const bool same = !rewritten(t);
@@ -335,41 +349,48 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   for (int32_t t : around)
     for (int32_t i = 0; i < 3; ++i) {
       const int32_t a = T.tri[t][i], b = T.tri[t][(i + 1) % 3];
-      if (affected(a) || affected(b)) he.push_back({std::min(a, b), std::max(a, b), t, i});
+      if (affected(a) || affected(b)) he.push_back({std::min(a, b), std::max(a, b), t, i, -1, -1, 0});
     }
-  // By edge, then triangle: the hinges come out in (min, max) order, each oriented from its lower triangle.
-  std::sort(he.begin(), he.end(), [](const auto& p, const auto& q) {
-    return p.lo != q.lo ? p.lo < q.lo : (p.hi != q.hi ? p.hi < q.hi : (p.t != q.t ? p.t < q.t : p.i < q.i));
-  });
+  // Paired through a small hash table on the edge rather than a sort (a cut's refresh sorted ~60 of them
+  // with unpredictable comparisons). Listed in ascending triangle order, so an edge's first half-edge is on
+  // its lower triangle, which orients the hinge as build_topology does.
+  std::vector<int32_t>& table = scratch.edge_table;
+  size_t mask = 15;
+  while (mask + 1 < 2 * he.size()) mask = 2 * mask + 1;
+  table.assign(mask + 1, -1);
+  for (int32_t k = 0; k < static_cast<int32_t>(he.size()); ++k) {
+    size_t h = (static_cast<size_t>(he[k].lo) * 0x9E3779B1u + static_cast<size_t>(he[k].hi)) & mask;
+    while (table[h] >= 0 && (he[table[h]].lo != he[k].lo || he[table[h]].hi != he[k].hi)) h = (h + 1) & mask;
+    if (table[h] < 0) table[h] = k;
+    const int32_t first = table[h];
+    he[k].first = first;
+    if (++he[first].count == 2) he[first].twin = k;
+  }
   size_t fresh = 0;  // hinges placed so far: they take the dropped slots in ascending order, then the end
-  for (size_t k = 0; k < he.size();) {
-    size_t m = k + 1;
-    while (m < he.size() && he[m].lo == he[k].lo && he[m].hi == he[k].hi) ++m;
-    if (m - k == 2) {
-      const auto& e0 = he[k];
-      const auto& e1 = he[k + 1];
-      topo.neighbor[e0.t][e0.i] = e1.t;
-      topo.neighbor[e1.t][e1.i] = e0.t;
-      const Tri& q0 = T.tri[e0.t];
-      const Hinge h{{q0[e0.i], q0[(e0.i + 1) % 3], q0[(e0.i + 2) % 3], T.tri[e1.t][(e1.i + 2) % 3]}};
-      int32_t slot;
-      if (fresh < dropped.size()) {
-        slot = dropped[fresh];
-        topo.hinges[slot] = h;
-      } else {
-        slot = static_cast<int32_t>(topo.hinges.size());
-        topo.hinges.push_back(h);
-      }
-      ++fresh;
-      topo.edge_hinge[e0.t][e0.i] = slot;
-      topo.edge_hinge[e1.t][e1.i] = slot;
-    } else {
-      for (size_t j = k; j < m; ++j) {
-        topo.neighbor[he[j].t][he[j].i] = -1;
-        topo.edge_hinge[he[j].t][he[j].i] = -1;
-      }
+  for (const auto& e : he) {
+    const auto& e_first = he[e.first];
+    if (e_first.count != 2) {  // a boundary edge, or one shared by more than two triangles: unpaired
+      topo.neighbor[e.t][e.i] = -1;
+      topo.edge_hinge[e.t][e.i] = -1;
+      continue;
     }
-    k = m;
+    if (&e != &e_first) continue;  // the second of a pair: set with the first
+    const auto& e1 = he[e.twin];
+    topo.neighbor[e.t][e.i] = e1.t;
+    topo.neighbor[e1.t][e1.i] = e.t;
+    const Tri& q0 = T.tri[e.t];
+    const Hinge h{{q0[e.i], q0[(e.i + 1) % 3], q0[(e.i + 2) % 3], T.tri[e1.t][(e1.i + 2) % 3]}};
+    int32_t slot;
+    if (fresh < dropped.size()) {
+      slot = dropped[fresh];
+      topo.hinges[slot] = h;
+    } else {
+      slot = static_cast<int32_t>(topo.hinges.size());
+      topo.hinges.push_back(h);
+    }
+    ++fresh;
+    topo.edge_hinge[e.t][e.i] = slot;
+    topo.edge_hinge[e1.t][e1.i] = slot;
   }
   // Dropped slots left over: filled from the end, highest first (a slot above is already settled). A hinge
   // moved that way is away from the change, so its two triangles are found in its first vertex's fan.
