@@ -74,13 +74,15 @@ void BM_Regions(benchmark::State& state) {
 }
 BENCHMARK(BM_Regions)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
+// The engine's call: over the boundary vertices, with the fiber cache.
 void BM_Candidates(benchmark::State& state) {
   BentSheet b = bent_sheet(static_cast<int32_t>(state.range(0)));
   Sheet& s = b.sheet;
   classify_regions(s.verts.x, s.tris.tri, s.topo, RegionParams{}, s.tris.region, s.regions, s.verts.flags);
   std::vector<Candidate> out;
+  FiberSampleCache cache;
   for (auto _ : state) {
-    find_candidates(s.verts, s.tips, s.fingers, s.tears, s.material, b.fiber, out);
+    find_candidates(s.verts, s.topo.boundary_vertices, s.tips, s.fingers, s.tears, s.material, b.fiber, out, cache);
     benchmark::DoNotOptimize(out.data());
   }
   state.counters["candidates"] = static_cast<double>(out.size());

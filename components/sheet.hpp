@@ -147,6 +147,7 @@ struct Topology {
   std::vector<Hinge> hinges;
   std::vector<int32_t> boundary_next;            // along the boundary, interior on the left; −1 if interior vertex
   std::vector<int32_t> boundary_prev;
+  std::vector<int32_t> boundary_vertices;        // those with boundary_next ≥ 0, ascending (the candidates' scan)
   int32_t piece_count = 0;
 
   std::span<const int32_t> fan(int32_t v) const {

@@ -1,7 +1,7 @@
 // Potential tearing points (paper §4.1) and their fracture energy (paper eq. 3, DESIGN §5.2).
 //
 // The list is short (~10 points) and rebuilt after every propagation, so it is a plain linear pass over
-// the vertices; what matters is that the order is deterministic, because the engine treats the
+// the boundary vertices; what matters is that the order is deterministic, because the engine treats the
 // candidates sequentially and each propagation changes the forces seen by the next (DESIGN §3).
 #include "systems/candidates.hpp"
 
@@ -49,20 +49,22 @@ double fracture_energy(const Material& material, double fiber_value, bool is_tip
   return material.fracture_c * t * d;
 }
 
-void find_candidates_impl(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
-                          const Material& material, const FiberField& fiber, const std::vector<Tear>* tears,
-                          std::vector<Candidate>& out, FiberSampleCache* cache) {
+// `boundary`: the boundary vertices in ascending order, or null to scan every vertex for kBoundary (the same
+// vertices in the same order when the list is the topology's). Nothing here is sized by the sheet: the
+// engine calls this after every propagation, and its cost should follow the boundary and the candidates.
+void find_candidates_impl(const Vertices& verts, const std::vector<int32_t>* boundary, const std::vector<Tip>& tips,
+                          const std::vector<Finger>& fingers, const Material& material, const FiberField& fiber,
+                          const std::vector<Tear>* tears, std::vector<Candidate>& out, FiberSampleCache* cache) {
   out.clear();
   const int32_t nv = verts.size();
   if (cache && static_cast<int32_t>(cache->uv.size()) != nv) {
     cache->uv.resize(nv, Vec2::Constant(std::numeric_limits<double>::quiet_NaN()));
     cache->value.resize(nv, 0.0);
   }
-  std::vector<char> taken(static_cast<size_t>(nv), 0);
-  std::vector<char> held(static_cast<size_t>(nv), 0);
   // A finger's vertex counts even if the kFinger flag has not been refreshed yet.
-  for (const Finger& f : fingers)
-    if (f.vertex >= 0 && f.vertex < nv) held[f.vertex] = 1;
+  auto held = [&](int32_t v) {
+    return std::any_of(fingers.begin(), fingers.end(), [v](const Finger& f) { return f.vertex == v; });
+  };
 
   // Active tips first, by tear id: a tear in progress is continued before new tears are considered,
   // whatever the vertex numbering that remeshing left behind.
@@ -70,15 +72,16 @@ void find_candidates_impl(const Vertices& verts, const std::vector<Tip>& tips, c
   std::sort(sorted.begin(), sorted.end(), [](const Tip& a, const Tip& b) {
     return a.tear != b.tear ? a.tear < b.tear : a.vertex < b.vertex;
   });
+  std::vector<int32_t> taken;  // tip vertices listed, ascending
   for (const Tip& tip : sorted) {
-    if (tip.vertex < 0 || tip.vertex >= nv || taken[tip.vertex]) continue;
-    taken[tip.vertex] = 1;
+    if (tip.vertex < 0 || tip.vertex >= nv || std::binary_search(taken.begin(), taken.end(), tip.vertex)) continue;
+    taken.insert(std::upper_bound(taken.begin(), taken.end(), tip.vertex), tip.vertex);
     Candidate c;
     c.vertex = tip.vertex;
     c.tear = tip.tear;
     if (tears && tip.tear >= 0 && tip.tear < static_cast<int32_t>(tears->size())) {
       c.kind = (*tears)[tip.tear].start_kind;
-    } else if (!candidate_kind(verts.flags[tip.vertex], held[tip.vertex], c.kind)) {
+    } else if (!candidate_kind(verts.flags[tip.vertex], held(tip.vertex), c.kind)) {
       c.kind = StartKind::Inward;  // every tear tip is an inward-angle point (paper §4.1)
     }
     c.fracture_energy = fracture_energy(material, fiber_at(fiber, verts, tip.vertex, cache), true);
@@ -86,18 +89,24 @@ void find_candidates_impl(const Vertices& verts, const std::vector<Tip>& tips, c
   }
 
   // Then the other boundary points of the three kinds, by ascending vertex id.
-  for (int32_t v = 0; v < nv; ++v) {
-    if (taken[v] || !(verts.flags[v] & kBoundary)) continue;
+  auto consider = [&](int32_t v) {
+    if (!(verts.flags[v] & kBoundary) || std::binary_search(taken.begin(), taken.end(), v)) return;
     Candidate c;
     // The two lips of a tear turn apart, so their triangles always fall in different regions: that is
     // the tear itself, not a junction of the surface. A lip vertex is a candidate only as an inward
     // angle (a split vertex, where a branch may start, paper §5.3) or a finger.
     uint8_t flags = verts.flags[v];
     if (verts.tear[v] >= 0) flags &= static_cast<uint8_t>(~kJunction);
-    if (!candidate_kind(flags, held[v], c.kind)) continue;
+    if (!candidate_kind(flags, held(v), c.kind)) return;
     c.vertex = v;
     c.fracture_energy = fracture_energy(material, fiber_at(fiber, verts, v, cache), false);
     out.push_back(c);
+  };
+  if (boundary) {
+    for (int32_t v : *boundary)
+      if (v >= 0 && v < nv) consider(v);
+  } else {
+    for (int32_t v = 0; v < nv; ++v) consider(v);
   }
 }
 
@@ -105,19 +114,19 @@ void find_candidates_impl(const Vertices& verts, const std::vector<Tip>& tips, c
 
 void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
                      const Material& material, const FiberField& fiber, std::vector<Candidate>& out) {
-  find_candidates_impl(verts, tips, fingers, material, fiber, nullptr, out, nullptr);
+  find_candidates_impl(verts, nullptr, tips, fingers, material, fiber, nullptr, out, nullptr);
 }
 
 void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
                      const std::vector<Tear>& tears, const Material& material, const FiberField& fiber,
                      std::vector<Candidate>& out) {
-  find_candidates_impl(verts, tips, fingers, material, fiber, &tears, out, nullptr);
+  find_candidates_impl(verts, nullptr, tips, fingers, material, fiber, &tears, out, nullptr);
 }
 
-void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
-                     const std::vector<Tear>& tears, const Material& material, const FiberField& fiber,
-                     std::vector<Candidate>& out, FiberSampleCache& cache) {
-  find_candidates_impl(verts, tips, fingers, material, fiber, &tears, out, &cache);
+void find_candidates(const Vertices& verts, const std::vector<int32_t>& boundary_vertices, const std::vector<Tip>& tips,
+                     const std::vector<Finger>& fingers, const std::vector<Tear>& tears, const Material& material,
+                     const FiberField& fiber, std::vector<Candidate>& out, FiberSampleCache& cache) {
+  find_candidates_impl(verts, &boundary_vertices, tips, fingers, material, fiber, &tears, out, &cache);
 }
 
 }  // namespace pt

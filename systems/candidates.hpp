@@ -36,9 +36,12 @@ struct FiberSampleCache {
   std::vector<double> value;  // fiber_sample at uv; NaN uv marks an empty slot
 };
 
-// Same as above, with the cache (in and out). Results are bit-identical to the uncached call.
-void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
-                     const std::vector<Tear>& tears, const Material& material, const FiberField& fiber,
-                     std::vector<Candidate>& out, FiberSampleCache& cache);
+// The engine's call: as above, over the sheet's boundary vertices (Topology::boundary_vertices, ascending)
+// instead of every vertex, so its cost follows the boundary and the candidates, not the sheet (issue 3), and
+// with the cache (in and out). Results are bit-identical to the call above while the list holds exactly
+// the vertices flagged kBoundary, which the topology refresh keeps so.
+void find_candidates(const Vertices& verts, const std::vector<int32_t>& boundary_vertices, const std::vector<Tip>& tips,
+                     const std::vector<Finger>& fingers, const std::vector<Tear>& tears, const Material& material,
+                     const FiberField& fiber, std::vector<Candidate>& out, FiberSampleCache& cache);
 
 }  // namespace pt

@@ -143,6 +143,9 @@ void build_topology(const std::vector<Tri>& tri, int32_t vertex_count, Topology&
         topo.boundary_next[a] = b;
         topo.boundary_prev[b] = a;
       }
+  topo.boundary_vertices.clear();
+  for (int32_t v = 0; v < vertex_count; ++v)
+    if (topo.boundary_next[v] >= 0) topo.boundary_vertices.push_back(v);
   topo.piece_count = flood_fill_pieces(topo.neighbor, piece);
 }
 
@@ -424,6 +427,22 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
     topo.boundary_prev[v] = prev;
     V.mass[v] = mass;
   }
+  // The boundary list: the affected vertices and the ids past the new end leave it, the affected ones on the
+  // boundary now come back, in one merge (the list is as long as the boundary, not the sheet).
+  {
+    std::vector<int32_t>& merged = scratch.fan;
+    merged.clear();
+    size_t k = 0;
+    for (int32_t b : topo.boundary_vertices) {
+      if (b >= nv) break;
+      for (; k < A.size() && A[k] < b; ++k)
+        if (topo.boundary_next[A[k]] >= 0) merged.push_back(A[k]);
+      if (!affected(b)) merged.push_back(b);
+    }
+    for (; k < A.size(); ++k)
+      if (topo.boundary_next[A[k]] >= 0) merged.push_back(A[k]);
+    topo.boundary_vertices.assign(merged.begin(), merged.end());
+  }
   for (int32_t v : A) {
     uint8_t f = V.flags[v] & ~(kBoundary | kInward);
     if (topo.boundary_next[v] >= 0) {
@@ -584,7 +603,8 @@ std::string check_mesh_invariants(const Sheet& sheet, double expected_area) {
     if (what) {
     } else if (cur.neighbor != topo.neighbor) {
       what = "triangle neighbours";
-    } else if (cur.boundary_next != topo.boundary_next || cur.boundary_prev != topo.boundary_prev) {
+    } else if (cur.boundary_next != topo.boundary_next || cur.boundary_prev != topo.boundary_prev ||
+               cur.boundary_vertices != topo.boundary_vertices) {
       what = "boundary links";
     } else if (cur.piece_count != topo.piece_count || T.piece != piece) {
       what = "pieces";

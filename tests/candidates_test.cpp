@@ -166,7 +166,7 @@ TEST(Candidates, FiberCacheMatchesUncachedAndFollowsMovedVertices) {
     if (round == 1) std::swap(s.verts.rest[5], s.verts.rest[6]);            // a renumbering
     if (round == 2) s.verts.rest[6] += Vec2(0.0031, -0.0017);              // a vertex at a new point
     std::vector<Candidate> cached, plain;
-    find_candidates(s.verts, s.tips, s.fingers, s.tears, s.material, fiber, cached, cache);
+    find_candidates(s.verts, s.topo.boundary_vertices, s.tips, s.fingers, s.tears, s.material, fiber, cached, cache);
     find_candidates(s.verts, s.tips, s.fingers, s.tears, s.material, fiber, plain);
     ASSERT_EQ(cached.size(), plain.size());
     for (size_t i = 0; i < plain.size(); ++i) {
