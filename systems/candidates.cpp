@@ -61,18 +61,22 @@ void find_candidates_impl(const Vertices& verts, const std::vector<int32_t>* bou
     cache->uv.resize(nv, Vec2::Constant(std::numeric_limits<double>::quiet_NaN()));
     cache->value.resize(nv, 0.0);
   }
+  // Per-call lists as long as the fingers and tips, kept per thread (this runs after every propagation).
+  thread_local std::vector<int32_t> held_vertices, taken;
+  thread_local std::vector<Tip> sorted;
   // A finger's vertex counts even if the kFinger flag has not been refreshed yet.
-  auto held = [&](int32_t v) {
-    return std::any_of(fingers.begin(), fingers.end(), [v](const Finger& f) { return f.vertex == v; });
-  };
+  held_vertices.clear();
+  for (const Finger& f : fingers) held_vertices.push_back(f.vertex);
+  std::sort(held_vertices.begin(), held_vertices.end());
+  auto held = [&](int32_t v) { return std::binary_search(held_vertices.begin(), held_vertices.end(), v); };
 
   // Active tips first, by tear id: a tear in progress is continued before new tears are considered,
   // whatever the vertex numbering that remeshing left behind.
-  std::vector<Tip> sorted(tips.begin(), tips.end());
+  sorted.assign(tips.begin(), tips.end());
   std::sort(sorted.begin(), sorted.end(), [](const Tip& a, const Tip& b) {
     return a.tear != b.tear ? a.tear < b.tear : a.vertex < b.vertex;
   });
-  std::vector<int32_t> taken;  // tip vertices listed, ascending
+  taken.clear();  // tip vertices listed, ascending
   for (const Tip& tip : sorted) {
     if (tip.vertex < 0 || tip.vertex >= nv || std::binary_search(taken.begin(), taken.end(), tip.vertex)) continue;
     taken.insert(std::upper_bound(taken.begin(), taken.end(), tip.vertex), tip.vertex);
@@ -88,16 +92,22 @@ void find_candidates_impl(const Vertices& verts, const std::vector<int32_t>* bou
     out.push_back(c);
   }
 
-  // Then the other boundary points of the three kinds, by ascending vertex id.
+  // Then the other boundary points of the three kinds, by ascending vertex id. The tip and finger lists are
+  // ascending too, so they are walked alongside (a search per vertex mispredicted its branches).
+  size_t next_taken = 0, next_held = 0;
   auto consider = [&](int32_t v) {
-    if (!(verts.flags[v] & kBoundary) || std::binary_search(taken.begin(), taken.end(), v)) return;
+    if (!(verts.flags[v] & kBoundary)) return;
+    while (next_taken < taken.size() && taken[next_taken] < v) ++next_taken;
+    if (next_taken < taken.size() && taken[next_taken] == v) return;
+    while (next_held < held_vertices.size() && held_vertices[next_held] < v) ++next_held;
+    const bool is_held = next_held < held_vertices.size() && held_vertices[next_held] == v;
     Candidate c;
     // The two lips of a tear turn apart, so their triangles always fall in different regions: that is
     // the tear itself, not a junction of the surface. A lip vertex is a candidate only as an inward
     // angle (a split vertex, where a branch may start, paper §5.3) or a finger.
     uint8_t flags = verts.flags[v];
     if (verts.tear[v] >= 0) flags &= static_cast<uint8_t>(~kJunction);
-    if (!candidate_kind(flags, held(v), c.kind)) return;
+    if (!candidate_kind(flags, is_held, c.kind)) return;
     c.vertex = v;
     c.fracture_energy = fracture_energy(material, fiber_at(fiber, verts, v, cache), false);
     out.push_back(c);
