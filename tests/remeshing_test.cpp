@@ -92,6 +92,19 @@ int count_at(const Sheet& s, const Vec2& r) {
   return n;
 }
 
+// A boundary vertex, u in [0, 1) choosing among them in id order.
+int32_t random_boundary_vertex(const Sheet& s, double u) {
+  std::vector<int32_t> boundary;
+  for (int32_t v = 0; v < s.verts.size(); ++v)
+    if (s.verts.flags[v] & kBoundary) boundary.push_back(v);
+  return boundary[static_cast<size_t>(u * boundary.size()) % boundary.size()];
+}
+
+// Unit pattern direction from boundary vertex p to the next one along the boundary (sheet on the left).
+Vec2 boundary_tangent(const Sheet& s, int32_t p) {
+  return (s.verts.rest[s.topo.boundary_next[p]] - s.verts.rest[p]).normalized();
+}
+
 double segment_param(const Vec2& p, const Vec2& q, const Vec2& a, const Vec2& b, bool& hit) {
   auto cr = [](const Vec2& u, const Vec2& w) { return u.x() * w.y() - u.y() * w.x(); };
   const Vec2 d = q - p, e = b - a;
@@ -433,13 +446,10 @@ TEST(Remeshing, RandomTearsFromAnyBoundaryVertex) {
     const double area = total_rest_area(s.tris);
     const double cell = std::min(kW / nx, kH / ny);
     for (int k = 0; k < 15; ++k) {
-      std::vector<int32_t> boundary;
-      for (int32_t v = 0; v < s.verts.size(); ++v)
-        if (s.verts.flags[v] & kBoundary) boundary.push_back(v);
-      const int32_t p = boundary[static_cast<size_t>(uni(rng) * boundary.size()) % boundary.size()];
+      const int32_t p = random_boundary_vertex(s, uni(rng));
       // Mostly towards the inside (the interior bisector at p), sometimes anywhere.
       const Vec2 rp = s.verts.rest[p];
-      const Vec2 tn = (s.verts.rest[s.topo.boundary_next[p]] - rp).normalized();
+      const Vec2 tn = boundary_tangent(s, p);
       const double angle = interior_pattern_angle(s.topo, s.verts.rest, p);
       const double rot = uni(rng) < 0.8 ? angle * (0.1 + 0.8 * uni(rng)) : 2 * std::numbers::pi * uni(rng);
       const Vec2 d = Eigen::Rotation2Dd(rot) * tn;
@@ -492,12 +502,9 @@ TEST(Remeshing, LocalRefreshMovesFansCompactsThePoolAndReusesHingeSlots) {
     const double area = total_rest_area(s.tris);
     const double cell = std::min(kW / 8, kH / 8);
     for (int k = 0; k < 150; ++k) {
-      std::vector<int32_t> boundary;
-      for (int32_t v = 0; v < s.verts.size(); ++v)
-        if (s.verts.flags[v] & kBoundary) boundary.push_back(v);
-      const int32_t p = boundary[static_cast<size_t>(uni(rng) * boundary.size()) % boundary.size()];
+      const int32_t p = random_boundary_vertex(s, uni(rng));
       const Vec2 rp = s.verts.rest[p];
-      const Vec2 tn = (s.verts.rest[s.topo.boundary_next[p]] - rp).normalized();
+      const Vec2 tn = boundary_tangent(s, p);
       const double angle = interior_pattern_angle(s.topo, s.verts.rest, p);
       const Vec2 d = Eigen::Rotation2Dd(angle * (0.1 + 0.8 * uni(rng))) * tn;
       const size_t pool_before = s.topo.vt_tri.size(), hinges_before = s.topo.hinges.size();
