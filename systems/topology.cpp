@@ -395,8 +395,8 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
     topo.edge_hinge[e.t][e.i] = slot;
     topo.edge_hinge[e1.t][e1.i] = slot;
   }
-  // Dropped slots left over: filled from the end, highest first (a slot above is already settled). A hinge
-  // moved that way is away from the change, so its two triangles are found in its first vertex's fan.
+  // Dropped slots left over: filled from the end, highest first (a slot above is already settled). A moved
+  // hinge's two triangles are found in its first vertex's fan (already up to date).
   for (size_t k = dropped.size(); k-- > fresh;) {
     const int32_t slot = dropped[k], last = static_cast<int32_t>(topo.hinges.size()) - 1;
     if (slot != last) {
