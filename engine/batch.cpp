@@ -86,8 +86,8 @@ size_t sheet_bytes(const Sheet& s) {
   b += capacity_bytes(s.tris.tri) + capacity_bytes(s.tris.rest_inv) + capacity_bytes(s.tris.rest_area) +
        capacity_bytes(s.tris.corner_force) + capacity_bytes(s.tris.region) + capacity_bytes(s.tris.piece) +
        capacity_bytes(s.tris.side);
-  b += capacity_bytes(s.topo.fans) + capacity_bytes(s.topo.vt_tri) + capacity_bytes(s.topo.neighbor) + capacity_bytes(s.topo.edge_hinge) +
-       capacity_bytes(s.topo.hinges) + capacity_bytes(s.topo.boundary_next) + capacity_bytes(s.topo.boundary_prev) +
+  b += capacity_bytes(s.topo.fans) + capacity_bytes(s.topo.vt_tri) + capacity_bytes(s.topo.neighbor) +
+       capacity_bytes(s.topo.edge_hinge) + capacity_bytes(s.topo.hinges) + capacity_bytes(s.topo.boundary_next) + capacity_bytes(s.topo.boundary_prev) +
        capacity_bytes(s.topo.boundary_vertices);
   b += capacity_bytes(s.regions) + capacity_bytes(s.tips) + capacity_bytes(s.tears) + capacity_bytes(s.fingers) +
        capacity_bytes(s.hands);

@@ -305,8 +305,8 @@ struct Simulation::Impl {
 
   void run_candidates() {
     ScopedTimer timer(profile.candidates);
-    find_candidates(sheet.verts, sheet.topo.boundary_vertices, sheet.tips, sheet.fingers, sheet.tears, sheet.material, fiber,
-                        candidates, fiber_cache);
+    find_candidates(sheet.verts, sheet.topo.boundary_vertices, sheet.tips, sheet.fingers, sheet.tears,
+                    sheet.material, fiber, candidates, fiber_cache);
   }
 
   void refresh_role_flags() {
@@ -439,8 +439,8 @@ struct Simulation::Impl {
       // Vertex ids changed: find the candidates again and go on with the ones not yet treated.
       {
         ScopedTimer timer(profile.candidates);
-        find_candidates(sheet.verts, sheet.topo.boundary_vertices, sheet.tips, sheet.fingers, sheet.tears, sheet.material, fiber,
-                        candidates, fiber_cache);
+        find_candidates(sheet.verts, sheet.topo.boundary_vertices, sheet.tips, sheet.fingers, sheet.tears,
+                        sheet.material, fiber, candidates, fiber_cache);
       }
       index = 0;
       ++propagations;

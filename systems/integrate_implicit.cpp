@@ -314,7 +314,7 @@ bool energy_bounded(const Sheet& sheet, ImplicitSolver& s, const ImplicitParams&
       const Mat32& F = frame.F;
       const Mat32& R = frame.R;
       const double tr = (R.transpose() * F).trace() - 2;
-      const double w = mp.thickness * T.rest_area[t] * (mp.mu * (F - R).squaredNorm() + 0.5 * mp.lambda * tr * tr);
+      const double w = mp.thickness * T.rest_area[t] * corotated_energy_density(F, R, tr, mp);
       s.tri_check[t] = {w - (s.tri_energy[t] - h * work + 0.5 * h * h * quad), quad};
     }
   });
@@ -395,7 +395,7 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
             brake > 0 ? kBrakeKappa[brake] : std::max(0.0, (mp.mu + mp.lambda) * (i1 - 2) / (mp.mu * i1));
         if (with_forces) {
           const double tr = strain.trace();
-          s.tri_energy[t] = mp.thickness * T.rest_area[t] * (mp.mu * (F - R).squaredNorm() + 0.5 * mp.lambda * tr * tr);
+          s.tri_energy[t] = mp.thickness * T.rest_area[t] * corotated_energy_density(F, R, tr, mp);
         }
         Vec3 rg[3], lambda_rg[3], twist_rg[3];
         for (int a = 0; a < 3; ++a) {

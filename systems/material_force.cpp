@@ -72,12 +72,9 @@ DrivingForce crack_driving_force(const Vertices& verts, const Triangles& tris, c
     if (grad_q.squaredNorm() == 0) continue;
     CorotatedFrame frame;
     corotated_frame(verts.x[c[0]], verts.x[c[1]], verts.x[c[2]], rest_inv, frame);
-    const Eigen::Matrix<double, 3, 2> stretch = frame.F - frame.R;
     const double dilation = frame.trace_s - 2;
-    // W = μ ‖F − R‖² + λ/2 (tr(RᵀF) − 2)², P = ∂W/∂F = 2μ (F − R) + λ (tr(RᵀF) − 2) R (R's variation is
-    // orthogonal to F − R).
-    const double energy = params.mu * stretch.squaredNorm() + 0.5 * params.lambda * dilation * dilation;
-    const Eigen::Matrix<double, 3, 2> stress = 2 * params.mu * stretch + params.lambda * dilation * frame.R;
+    const double energy = corotated_energy_density(frame.F, frame.R, dilation, params);
+    const Eigen::Matrix<double, 3, 2> stress = corotated_stress(frame.F, frame.R, dilation, params);
     const Mat2 eshelby = energy * Mat2::Identity() - frame.F.transpose() * stress;
     sum += tris.rest_area[t] * (eshelby * grad_q);
     ++out.triangles;

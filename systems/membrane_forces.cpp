@@ -192,7 +192,7 @@ double membrane_energy(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
     const Mat32 F = deformation_gradient(x, tri[t], rest_inv[t]);
     const Mat32 R = polar_rotation(F);
     const double tr = (R.transpose() * F).trace() - 2;
-    total += params.thickness * rest_area[t] * (params.mu * (F - R).squaredNorm() + 0.5 * params.lambda * tr * tr);
+    total += params.thickness * rest_area[t] * corotated_energy_density(F, R, tr, params);
   }
   return total;
 }

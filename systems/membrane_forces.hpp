@@ -35,6 +35,19 @@ void corotated_frame(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Mat2&
 void corotated_corner_forces(const CorotatedFrame& frame, const Mat2& rest_inv, double rest_area,
                              const MembraneParams& params, std::array<Vec3, 3>& corner_force);
 
+// The energy above per unit thickness and rest area, W = μ ‖F − R‖² + λ/2 d² with d = tr(RᵀF) − 2 (callers
+// pass d as they have it), and its first Piola stress P = ∂W/∂F = 2μ (F − R) + λ d R (R's variation is
+// orthogonal to F − R). The energy check, the integrator and the crack driving force share them.
+inline double corotated_energy_density(const Eigen::Matrix<double, 3, 2>& F, const Eigen::Matrix<double, 3, 2>& R,
+                                       double d, const MembraneParams& params) {
+  return params.mu * (F - R).squaredNorm() + 0.5 * params.lambda * d * d;
+}
+inline Eigen::Matrix<double, 3, 2> corotated_stress(const Eigen::Matrix<double, 3, 2>& F,
+                                                    const Eigen::Matrix<double, 3, 2>& R, double d,
+                                                    const MembraneParams& params) {
+  return 2 * params.mu * (F - R) + params.lambda * d * R;
+}
+
 // Triangles [begin, end): corner forces, written to corner_force[t]. Serial kernel; the engine calls it
 // on ranges in parallel (each triangle writes only its own slot).
 void compute_membrane_forces(const std::vector<Vec3>& x, const std::vector<Tri>& tri,

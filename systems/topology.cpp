@@ -198,7 +198,7 @@ struct LocalRefreshScratch {
   std::vector<uint32_t> tri_stamp;
   std::vector<int32_t> tri_now;
   uint32_t generation = 0;
-  std::vector<int32_t> fan, around, dropped;
+  std::vector<int32_t> fan, around, dropped, boundary;
   struct HalfEdge {
     int32_t lo, hi, t, i;
     int32_t first;  // the first half-edge listed on the same edge (itself if it is the first)
@@ -259,7 +259,8 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   }
   const std::vector<int32_t>& A = change.vertices;  // affected vertices, ascending
   thread_local LocalRefreshScratch scratch;
-  if (scratch.stamp.size() < static_cast<size_t>(std::max(nv, nv_before))) scratch.stamp.resize(std::max(nv, nv_before), 0);
+  const size_t vertex_ids = static_cast<size_t>(std::max(nv, nv_before));
+  if (scratch.stamp.size() < vertex_ids) scratch.stamp.resize(vertex_ids, 0);
   if (scratch.tri_stamp.size() < static_cast<size_t>(nt_before)) {
     scratch.tri_stamp.resize(nt_before, 0);
     scratch.tri_now.resize(nt_before, -1);
@@ -430,7 +431,7 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   // The boundary list: the affected vertices and the ids past the new end leave it, the affected ones on the
   // boundary now come back, in one merge (the list is as long as the boundary, not the sheet).
   {
-    std::vector<int32_t>& merged = scratch.fan;
+    std::vector<int32_t>& merged = scratch.boundary;
     merged.clear();
     size_t k = 0;
     for (int32_t b : topo.boundary_vertices) {

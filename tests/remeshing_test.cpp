@@ -509,7 +509,8 @@ TEST(Remeshing, LocalRefreshMovesFansCompactsThePoolAndReusesHingeSlots) {
       const Vec2 d = Eigen::Rotation2Dd(angle * (0.1 + 0.8 * uni(rng))) * tn;
       const size_t pool_before = s.topo.vt_tri.size(), hinges_before = s.topo.hinges.size();
       const int32_t unused_before = s.topo.vt_unused;
-      const CutResult r = cut_tear_segment(p, rp + cell * (0.2 + 0.8 * uni(rng)) * d, Vec2::Zero(), k, RemeshParams{}, s);
+      const Vec2 next = rp + cell * (0.2 + 0.8 * uni(rng)) * d;
+      const CutResult r = cut_tear_segment(p, next, Vec2::Zero(), k, RemeshParams{}, s);
       if (!r.cut) continue;
       ++cuts;
       ASSERT_EQ(check_mesh_invariants(s, area), "") << "sheet " << sheet_index << " cut " << k;
