@@ -50,7 +50,8 @@ TEST(DenseKernels, ProductsMatchLoops) {
   std::mt19937 rng(7);
   for (const DenseKernels* kern : builds())
     for (const auto [m, n, k] :
-         {std::array{3, 3, 3}, std::array{12, 9, 6}, std::array{37, 21, 48}, std::array{96, 60, 33}}) {
+         {std::array{3, 3, 3}, std::array{12, 9, 6}, std::array{37, 21, 48}, std::array{96, 60, 33},
+          std::array{7, 5, 0}}) {  // k = 0: C = 0
       const Strided a = random_matrix(m, k, rng), b = random_matrix(n, k, rng);
       Strided c(m, n, m + 3, -7.0);
       kern->gemm_nt(m, n, k, a.data.data(), a.ld, b.data.data(), b.ld, c.data.data(), c.ld);
