@@ -222,6 +222,16 @@ SheetMatrix sheet_matrix(int32_t triangles) {
   return {n, std::move(keys), std::move(values), std::move(coordinates)};
 }
 
+// A range runner over oneTBB for the calls run inside a task arena of `threads` (serial at 1).
+RangeRunner tbb_runner(int32_t threads) {
+  return [threads](int32_t count, int32_t grain, const RangeTask& task) {
+    if (threads <= 1 || count <= 1) return task(0, count);
+    tbb::parallel_for(
+        tbb::blocked_range<int32_t>(0, count, std::max(1, grain)),
+        [&](const tbb::blocked_range<int32_t>& r) { task(r.begin(), r.end()); }, tbb::simple_partitioner());
+  };
+}
+
 // One numeric factorisation of the implicit integrator's matrix pattern (every vertex free, a block per
 // pair of vertices sharing a triangle or a hinge) with diagonally dominant SPD values, at 1 and 2
 // threads: the kernel that dominates a physics frame. Counters: fill (blocks of L), block updates and
@@ -233,12 +243,7 @@ void BM_BlockLdltFactor(benchmark::State& state) {
   BlockLdlt ldlt;
   analyze_block_ldlt(n, m.keys, BlockLdltParams{}, ldlt, m.coordinates);
   tbb::task_arena arena(threads);
-  const RangeRunner run = [&](int32_t count, int32_t grain, const RangeTask& task) {
-    if (threads <= 1 || count <= 1) return task(0, count);
-    tbb::parallel_for(
-        tbb::blocked_range<int32_t>(0, count, std::max(1, grain)),
-        [&](const tbb::blocked_range<int32_t>& r) { task(r.begin(), r.end()); }, tbb::simple_partitioner());
-  };
+  const RangeRunner run = tbb_runner(threads);
   for (auto _ : state) {
     bool ok = false;
     arena.execute([&] { ok = factorize_block_ldlt(values, run, ldlt); });
@@ -257,11 +262,20 @@ BENCHMARK(BM_BlockLdltFactor)
     ->UseRealTime();
 
 // The symbolic analysis that precedes it, once per structure (after every cut of a tear): orderings
-// (AMD, and nested dissection compared with it), elimination tree, patterns, supernodes.
+// (AMD, and nested dissection compared with it, concurrently on two threads), elimination tree, patterns,
+// supernodes.
 void BM_BlockLdltAnalyze(benchmark::State& state) {
   const SheetMatrix m = sheet_matrix(static_cast<int32_t>(state.range(0)));
+  const int32_t threads = static_cast<int32_t>(state.range(1));
   BlockLdlt ldlt;
-  for (auto _ : state) analyze_block_ldlt(m.n, m.keys, BlockLdltParams{}, ldlt, m.coordinates);
+  tbb::task_arena arena(threads);
+  const RangeRunner run = tbb_runner(threads);
+  for (auto _ : state)
+    arena.execute([&] { analyze_block_ldlt(m.n, m.keys, BlockLdltParams{}, ldlt, m.coordinates, run); });
   state.counters["vertices"] = m.n;
 }
-BENCHMARK(BM_BlockLdltAnalyze)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_BlockLdltAnalyze)
+    ->ArgsProduct({{1000, 10000}, {1, 2}})
+    ->ArgNames({"triangles", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();

@@ -99,8 +99,10 @@ struct BlockLdltParams {
 // Symbolic analysis. `keys` are the (row, col) block positions of the full symmetric pattern, every
 // diagonal block (i, i) included, each pair once; values later come in the same order. `coordinates`
 // (n 2D positions, e.g. the rest pattern of the vertices, or empty) allow a geometric nested dissection.
+// `run` may compute the two candidate orderings concurrently; the result does not depend on it.
 void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>>& keys, const BlockLdltParams& params,
-                        BlockLdlt& out, const std::vector<Eigen::Vector2d>& coordinates = {});
+                        BlockLdlt& out, const std::vector<Eigen::Vector2d>& coordinates = {},
+                        const RangeRunner& run = run_serial);
 
 // Numeric factorisation of the matrix whose block at keys[b] is values[b]. Returns false (and leaves the
 // factor unusable) when a pivot block is not positive definite or not finite.

@@ -228,7 +228,7 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
   const BlockLdltParams ldlt_params;
   if (s.free_count < ldlt_params.dissection_leaf) free_rest.clear();  // not read by the analysis
   if (!s.analysed || s.block_key != s.analysed_keys || free_rest != s.analysed_rest) {
-    analyze_block_ldlt(s.free_count, s.block_key, ldlt_params, s.ldlt, free_rest);
+    analyze_block_ldlt(s.free_count, s.block_key, ldlt_params, s.ldlt, free_rest, params.run);
     s.analysed_keys = s.block_key;
     s.analysed_rest = std::move(free_rest);
     s.stats.analyses += 1;

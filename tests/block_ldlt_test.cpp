@@ -289,6 +289,14 @@ TEST(BlockLdlt, NestedDissectionIsAPermutationAndSolves) {
   for (int32_t k = 0; k < n; ++k) ASSERT_EQ(sorted[k], k);
   EXPECT_NE(nd.order, amd.order);
   EXPECT_TRUE(nd.supernodal);
+  // The two candidate orderings computed on their own threads, the dissection started first: the same
+  // analysis.
+  BlockLdlt concurrent;
+  analyze_block_ldlt(n, keys, BlockLdltParams{}, concurrent, xy, reversed_threads);
+  EXPECT_EQ(concurrent.order, nd.order);
+  EXPECT_EQ(concurrent.block_updates, nd.block_updates);
+  EXPECT_EQ(concurrent.supernodes.super_start, nd.supernodes.super_start);
+  EXPECT_EQ(concurrent.supernodes.super_row, nd.supernodes.super_row);
   const std::vector<Mat3> values = random_values(keys, n, 0.5, rng);
   ASSERT_TRUE(factorize_block_ldlt(values, run_serial, nd));
   EXPECT_LE(solve_residual(nd, keys, values, n), 1e-11);
