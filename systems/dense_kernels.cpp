@@ -23,6 +23,8 @@ const DenseKernels& baseline_dense_kernels() {
     d.llt_lower = dense::baseline::llt_lower;
     d.solve_right_lower_transposed = dense::baseline::solve_right_lower_transposed;
     d.subtract_block_products = dense::baseline::subtract_block_products;
+    d.panel_forward = dense::baseline::panel_forward;
+    d.panel_backward = dense::baseline::panel_backward;
     return d;
   }();
   return k;

@@ -30,6 +30,10 @@ struct DenseKernels {
   // q < count, every matrix a 3 × 3 block of 9 column-major doubles. Most of a ~1 000-triangle frame.
   void (*subtract_block_products)(int32_t count, const int32_t* rows, const double* blocks, const double* x,
                                   double* y);
+  // The supernodal solve at one panel (column-major, leading dimension ld: the n × n lower triangle L₁₁ on
+  // top, the m rows L₂₁ below it). Forward: y = L₁₁⁻¹ y, then t = L₂₁ y. Backward: y = L₁₁⁻ᵀ (y − L₂₁ᵀ t).
+  void (*panel_forward)(int32_t n, int32_t m, const double* l, int64_t ld, double* y, double* t);
+  void (*panel_backward)(int32_t n, int32_t m, const double* l, int64_t ld, const double* t, double* y);
 };
 
 // The kernels this process uses: the AVX2 + FMA build when the CPU has both and the build has it, unless

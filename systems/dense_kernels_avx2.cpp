@@ -13,6 +13,7 @@
 #include <immintrin.h>
 
 #include <algorithm>
+#include <cmath>
 
 #define PT_DENSE_BUILD avx2
 #include "systems/dense_kernels_impl.inc"
@@ -215,6 +216,71 @@ void subtract_block_products_fma(int32_t count, const int32_t* rows, const doubl
   }
 }
 
+// The four lanes' sum, in a fixed order: (l0 + l2) + (l1 + l3).
+inline double lane_sum(__m256d v) {
+  const __m128d pair = _mm_add_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));
+  return _mm_cvtsd_f64(_mm_add_sd(pair, _mm_unpackhi_pd(pair, pair)));
+}
+
+// Σ_{i < count} a[i] b[i]: four lanes, each a chain over its indices, the last vector masked, then lane_sum.
+inline double dot(int32_t count, const double* a, const double* b) {
+  __m256d acc = _mm256_setzero_pd();
+  int32_t i = 0;
+  for (; i + 4 <= count; i += 4) acc = _mm256_fmadd_pd(_mm256_loadu_pd(a + i), _mm256_loadu_pd(b + i), acc);
+  if (i < count) {
+    const __m256i mask = first_lanes(count - i);
+    acc = _mm256_fmadd_pd(_mm256_maskload_pd(a + i, mask), _mm256_maskload_pd(b + i, mask), acc);
+  }
+  return lane_sum(acc);
+}
+
+// y = L₁₁⁻¹ y by columns (y_j /= L_jj, then the column below it times y_j leaves the later entries), then
+// t = L₂₁ y: per vector of four rows one chain over the columns, sixteen rows at a time.
+void panel_forward_fma(int32_t n, int32_t m, const double* l, int64_t ld, double* y, double* t) {
+  for (int32_t j = 0; j < n; ++j) {
+    const double* column = l + j * ld;
+    const double yj = y[j] / column[j];
+    y[j] = yj;
+    const __m256d v = _mm256_set1_pd(yj);
+    int32_t i = j + 1;
+    for (; i + 4 <= n; i += 4)
+      _mm256_storeu_pd(y + i, _mm256_fnmadd_pd(_mm256_loadu_pd(column + i), v, _mm256_loadu_pd(y + i)));
+    for (; i < n; ++i) y[i] = std::fma(-column[i], yj, y[i]);
+  }
+  if (n == 0) {
+    std::fill(t, t + m, 0.0);
+    return;
+  }
+  const double* below = l + n;
+  int32_t i = 0;
+  for (; i + 16 <= m; i += 16) {
+    __m256d acc[4];
+    for (int r = 0; r < 4; ++r) acc[r] = _mm256_setzero_pd();
+    for (int32_t j = 0; j < n; ++j) {
+      const __m256d v = _mm256_broadcast_sd(y + j);
+      for (int r = 0; r < 4; ++r) acc[r] = _mm256_fmadd_pd(_mm256_loadu_pd(below + i + 4 * r + j * ld), v, acc[r]);
+    }
+    for (int r = 0; r < 4; ++r) _mm256_storeu_pd(t + i + 4 * r, acc[r]);
+  }
+  for (; i < m; i += 4) {
+    const __m256i mask = first_lanes(std::min<int32_t>(4, m - i));
+    __m256d acc = _mm256_setzero_pd();
+    for (int32_t j = 0; j < n; ++j)
+      acc = _mm256_fmadd_pd(_mm256_maskload_pd(below + i + j * ld, mask), _mm256_broadcast_sd(y + j), acc);
+    _mm256_maskstore_pd(t + i, mask, acc);
+  }
+}
+
+// y −= L₂₁ᵀ t, one dot product per column (contiguous), then y = L₁₁⁻ᵀ y from the last entry up, each a
+// dot product of the column below the diagonal with the entries already solved.
+void panel_backward_fma(int32_t n, int32_t m, const double* l, int64_t ld, const double* t, double* y) {
+  for (int32_t j = 0; j < n; ++j) y[j] -= dot(m, l + n + j * ld, t);
+  for (int32_t j = n - 1; j >= 0; --j) {
+    const double* column = l + j * ld;
+    y[j] = (y[j] - dot(n - 1 - j, column + j + 1, y + j + 1)) / column[j];
+  }
+}
+
 }  // namespace
 
 // The Cholesky of a diagonal block stays Eigen's (one call per supernode, whatever the chunks).
@@ -224,6 +290,8 @@ void fill_fma(DenseKernels& k) {
   k.gemm_nt = gemm_nt_fma;
   k.solve_right_lower_transposed = solve_right_lower_transposed_fma;
   k.subtract_block_products = subtract_block_products_fma;
+  k.panel_forward = panel_forward_fma;
+  k.panel_backward = panel_backward_fma;
 }
 
 }  // namespace pt::dense::avx2

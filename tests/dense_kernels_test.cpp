@@ -149,6 +149,52 @@ TEST(DenseKernels, BlockProductsSubtractedMatchLoops) {
     }
 }
 
+// The supernodal solve at one panel: the n × n lower triangle L₁₁ on top of the m rows L₂₁, column-major.
+// Forward: L₁₁ y' = y, t = L₂₁ y'. Backward: L₁₁ᵀ y' = y − L₂₁ᵀ t. Checked by multiplying back; y and t sit
+// between guard values that must stay.
+TEST(DenseKernels, PanelSolvesMatchLoops) {
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (const DenseKernels* kern : builds())
+    for (const auto [n, m] : {std::array{1, 0}, std::array{3, 5}, std::array{9, 17}, std::array{30, 37},
+                              std::array{96, 101}}) {
+      Strided l(n + m, n, n + m + 3, -3.0);
+      for (int32_t j = 0; j < n; ++j) {
+        for (int32_t i = 0; i < n; ++i) l(i, j) = i == j ? 2.0 + u(rng) : (i > j ? 0.3 * u(rng) : 77.0);
+        for (int32_t i = n; i < n + m; ++i) l(i, j) = u(rng);
+      }
+      const double guard = 555.0;
+      std::vector<double> y(n + 2, guard), t(m + 2, guard), y0(n);
+      for (double& v : y0) v = u(rng);
+      std::copy(y0.begin(), y0.end(), y.begin() + 1);
+      kern->panel_forward(n, m, l.data.data(), l.ld, y.data() + 1, t.data() + 1);
+      for (int32_t i = 0; i < n; ++i) {
+        double s = 0;
+        for (int32_t j = 0; j <= i; ++j) s += l(i, j) * y[1 + j];
+        ASSERT_NEAR(s, y0[i], 1e-12 * n) << kern->name << " forward " << n << "x" << m;
+      }
+      for (int32_t i = 0; i < m; ++i) {
+        double s = 0;
+        for (int32_t j = 0; j < n; ++j) s += l(n + i, j) * y[1 + j];
+        ASSERT_NEAR(t[1 + i], s, 1e-12 * n) << kern->name << " forward product " << n << "x" << m;
+      }
+      ASSERT_TRUE(y.front() == guard && y.back() == guard && t.front() == guard && t.back() == guard) << kern->name;
+
+      std::vector<double> b(m + 2, guard);
+      for (int32_t i = 0; i < m; ++i) b[1 + i] = u(rng);
+      std::copy(y0.begin(), y0.end(), y.begin() + 1);
+      kern->panel_backward(n, m, l.data.data(), l.ld, b.data() + 1, y.data() + 1);
+      for (int32_t j = 0; j < n; ++j) {
+        double lhs = 0, rhs = y0[j];
+        for (int32_t i = j; i < n; ++i) lhs += l(i, j) * y[1 + i];
+        for (int32_t i = 0; i < m; ++i) rhs -= l(n + i, j) * b[1 + i];
+        ASSERT_NEAR(lhs, rhs, 1e-12 * (n + m)) << kern->name << " backward " << n << "x" << m;
+      }
+      ASSERT_TRUE(y.front() == guard && y.back() == guard) << kern->name;
+      expect_guards(l, -3.0);
+    }
+}
+
 TEST(DenseKernels, CholeskyRefusesWhatIsNotPositiveDefinite) {
   for (const DenseKernels* kern : builds()) {
     Strided a(3, 3, 3, 0.0);
