@@ -337,6 +337,27 @@ TEST(BlockLdlt, SupernodalFactorSolvesLikeADenseCholesky) {
   }
 }
 
+TEST(BlockLdlt, ReanalysisOfAnotherPatternKeepsTheSupernodalPanelsAndSolves) {
+  // The panels' storage is kept from one analysis to the next (a cut re-analyses the sheet): a smaller
+  // pattern after a bigger one, then a bigger one again, each factored (with a factor of the previous
+  // pattern's values still in the storage) and solved.
+  std::mt19937 rng(29);
+  BlockLdltParams params = small_chunks(4);
+  params.dissection_leaf = 64;
+  BlockLdlt ldlt;
+  for (const auto [w, h] : {std::array{24, 18}, std::array{15, 13}, std::array{26, 19}}) {
+    const int32_t n = w * h;
+    const Keys keys = sheet_pattern(w, h);
+    std::vector<Eigen::Vector2d> xy(n);
+    for (int32_t v = 0; v < n; ++v) xy[v] = Eigen::Vector2d(v % w, v / w);
+    analyze_block_ldlt(n, keys, params, ldlt, xy);
+    ASSERT_TRUE(ldlt.supernodal);
+    const std::vector<Mat3> values = random_values(keys, n, 0.3, rng);
+    ASSERT_TRUE(factorize_block_ldlt(values, run_serial, ldlt));
+    EXPECT_LE(solve_residual(ldlt, keys, values, n), 1e-11) << w << "x" << h;
+  }
+}
+
 TEST(BlockLdlt, SupernodalFactorRefusesPivotsAnywhereAndRecovers) {
   // A negative or NaN entry in a diagonal block low in the tree, then in the last separator (the top,
   // whose chunks run through the runner): refused each time, and the next good matrix factors again.
