@@ -643,6 +643,17 @@ void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>
     node_parent = parent;
   }
   split_into_subtrees(node_parent, work, n, params, out);
+  if (out.supernodal) {
+    SupernodalFactor& sf = out.supernodes;
+    const int32_t supernodes = static_cast<int32_t>(sf.super_start.size()) - 1;
+    sf.below_offset.assign(supernodes + 1, 0);
+    for (int32_t s = 0; s < supernodes; ++s)
+      sf.below_offset[s + 1] = sf.below_offset[s] + 3 * ((sf.row_start[s + 1] - sf.row_start[s]) -
+                                                         (sf.super_start[s + 1] - sf.super_start[s]));
+    sf.top_column.assign(n, 0);
+    for (int32_t s : out.top_nodes)
+      for (int32_t k = sf.super_start[s]; k < sf.super_start[s + 1]; ++k) sf.top_column[k] = 1;
+  }
   // Which key of a symmetric pair the factor reads: the column path the upper part in factor order, the
   // supernodal path the lower part (both read the diagonal).
   {
@@ -739,9 +750,9 @@ bool factorize_block_ldlt(const std::vector<Mat3>& values, const RangeRunner& ru
   return f.factorized;
 }
 
-void solve_block_ldlt(const BlockLdlt& f, const double* b, double* x) {
+void solve_block_ldlt(const BlockLdlt& f, const double* b, double* x, const RangeRunner& run) {
   using Vec3 = Eigen::Vector3d;
-  thread_local Eigen::VectorXd z, t;
+  thread_local Eigen::VectorXd z, below;
   z.resize(3 * f.n);
   for (int32_t k = 0; k < f.n; ++k) z.segment<3>(3 * k) = Eigen::Map<const Vec3>(b + 3 * f.order[k]);
   if (!f.supernodal) {
@@ -763,26 +774,68 @@ void solve_block_ldlt(const BlockLdlt& f, const double* b, double* x) {
     }
   } else {
     // Per panel through the dense kernels (dense_kernels.hpp): the baseline build is the Eigen code this
-    // was; the AVX2 one took a solve at 10 000 triangles from 5.8–6.5 ms to 3.7–3.9 ms (one core, 2026-11-22),
-    // which reads the 24 MB of panels twice at ~12.6 GB/s: the memory's pace, not the arithmetic's.
+    // was; the AVX2 one took a solve at 10 000 triangles from 5.8–6.5 ms to 3.7–3.9 ms (one core,
+    // 2026-11-22), which reads the 24 MB of panels twice at ~12.6 GB/s: the memory's pace, not the
+    // arithmetic's. So the subtree tasks of the factorisation solve in parallel too, in a way that keeps
+    // every entry's sequence of operations of the serial solve:
+    // - forward (supernodes in increasing order): a task's supernode updates rows of its own subtree at
+    //   once (only that task's supernodes touch them, in the serial order) and leaves its product for the
+    //   rows of top supernodes in `below`; then one pass in supernode order solves the top supernodes and
+    //   applies the task supernodes' products to top rows, in the serial order;
+    // - backward (decreasing order): the top supernodes first (they read top rows only), then the tasks,
+    //   each reading rows of its subtree and top rows, all final by then.
     const SupernodalFactor& sf = f.supernodes;
     const DenseKernels& kernels = dense_kernels();
     const int32_t supernodes = static_cast<int32_t>(sf.super_start.size()) - 1;
-    for (int32_t s = 0; s < supernodes; ++s) {  // L y = b
+    const int32_t tasks = static_cast<int32_t>(f.task_start.size()) - 1;
+    below.resize(sf.below_offset[supernodes]);
+    double* const zd = z.data();
+    double* const bd = below.data();
+    auto apply_below = [&](int32_t s, int apply_top, const double* t) {
       const int32_t columns = sf.super_start[s + 1] - sf.super_start[s], rows = sf.row_start[s + 1] - sf.row_start[s];
-      t.resize(3 * (rows - columns));
+      for (int32_t q = columns; q < rows; ++q) {
+        const int32_t row = sf.super_row[sf.row_start[s] + q];
+        if (apply_top >= 0 && sf.top_column[row] != apply_top) continue;
+        for (int e = 0; e < 3; ++e) zd[3 * row + e] -= t[3 * (q - columns) + e];
+      }
+    };
+    // Solves supernode s's columns and forms its product with the rows below; applies it to the rows with
+    // top_column == apply_top (both when apply_top < 0).
+    auto forward = [&](int32_t s, int apply_top) {
+      const int32_t columns = sf.super_start[s + 1] - sf.super_start[s], rows = sf.row_start[s + 1] - sf.row_start[s];
+      double* t = bd + sf.below_offset[s];
       kernels.panel_forward(3 * columns, 3 * (rows - columns), sf.panel.data() + sf.panel_start[s], 3 * rows,
-                            z.data() + 3 * sf.super_start[s], t.data());
-      for (int32_t q = columns; q < rows; ++q)
-        z.segment<3>(3 * sf.super_row[sf.row_start[s] + q]) -= t.segment<3>(3 * (q - columns));
-    }
-    for (int32_t s = supernodes - 1; s >= 0; --s) {  // Lᵀ x = y
+                            zd + 3 * sf.super_start[s], t);
+      apply_below(s, apply_top, t);
+    };
+    auto backward = [&](int32_t s) {
       const int32_t columns = sf.super_start[s + 1] - sf.super_start[s], rows = sf.row_start[s + 1] - sf.row_start[s];
-      t.resize(3 * (rows - columns));
+      double* t = bd + sf.below_offset[s];
       for (int32_t q = columns; q < rows; ++q)
-        t.segment<3>(3 * (q - columns)) = z.segment<3>(3 * sf.super_row[sf.row_start[s] + q]);
-      kernels.panel_backward(3 * columns, 3 * (rows - columns), sf.panel.data() + sf.panel_start[s], 3 * rows,
-                             t.data(), z.data() + 3 * sf.super_start[s]);
+        for (int e = 0; e < 3; ++e) t[3 * (q - columns) + e] = zd[3 * sf.super_row[sf.row_start[s] + q] + e];
+      kernels.panel_backward(3 * columns, 3 * (rows - columns), sf.panel.data() + sf.panel_start[s], 3 * rows, t,
+                             zd + 3 * sf.super_start[s]);
+    };
+    if (f.top_nodes.empty()) {  // one task: the serial solve
+      for (int32_t s = 0; s < supernodes; ++s) forward(s, -1);
+      for (int32_t s = supernodes - 1; s >= 0; --s) backward(s);
+    } else {
+      run(tasks, 1, [&](int32_t begin, int32_t end) {
+        for (int32_t k = begin; k < end; ++k)
+          for (int32_t q = f.task_start[k]; q < f.task_start[k + 1]; ++q) forward(f.task_nodes[q], 0);
+      });
+      std::vector<uint8_t> is_top(supernodes, 0);
+      for (int32_t s : f.top_nodes) is_top[s] = 1;
+      for (int32_t s = 0; s < supernodes; ++s) {
+        if (is_top[s]) forward(s, -1);
+        else apply_below(s, 1, bd + sf.below_offset[s]);
+      }
+      for (int32_t s = supernodes - 1; s >= 0; --s)
+        if (is_top[s]) backward(s);
+      run(tasks, 1, [&](int32_t begin, int32_t end) {
+        for (int32_t k = begin; k < end; ++k)
+          for (int32_t q = f.task_start[k + 1] - 1; q >= f.task_start[k]; --q) backward(f.task_nodes[q]);
+      });
     }
   }
   for (int32_t k = 0; k < f.n; ++k) Eigen::Map<Vec3>(x + 3 * f.order[k]) = z.segment<3>(3 * k);
@@ -802,7 +855,8 @@ size_t block_ldlt_bytes(const BlockLdlt& l) {
        capacity_bytes(sn.panel_start) + capacity_bytes(sn.panel) + capacity_bytes(sn.update_start) +
        capacity_bytes(sn.update_source) + capacity_bytes(sn.update_first) + capacity_bytes(sn.update_last) +
        capacity_bytes(sn.chunk_first) + capacity_bytes(sn.chunk_begin) + capacity_bytes(sn.assembly_start) +
-       capacity_bytes(sn.assembly_key) + capacity_bytes(sn.assembly_offset) + capacity_bytes(sn.position);
+       capacity_bytes(sn.assembly_key) + capacity_bytes(sn.assembly_offset) + capacity_bytes(sn.position) +
+       capacity_bytes(sn.below_offset) + capacity_bytes(sn.top_column);
   for (const auto& p : sn.position) b += capacity_bytes(p);
   return b;
 }

@@ -61,6 +61,10 @@ struct SupernodalFactor {
   std::vector<int32_t> assembly_start, assembly_key;
   std::vector<int64_t> assembly_offset;
   std::vector<std::vector<int32_t>> position;  // row of a factor index in the current supernode, per task (+1)
+  // For the solve: per supernode, the offset of its below-diagonal rows' values in a scratch vector
+  // (3 doubles per row), and per factor column whether its supernode is one of `top_nodes`.
+  std::vector<int64_t> below_offset;
+  std::vector<uint8_t> top_column;
 };
 
 struct BlockLdlt {
@@ -108,8 +112,9 @@ void analyze_block_ldlt(int32_t n, const std::vector<std::pair<int32_t, int32_t>
 // factor unusable) when a pivot block is not positive definite or not finite.
 bool factorize_block_ldlt(const std::vector<Mat3>& values, const RangeRunner& run, BlockLdlt& ldlt);
 
-// x = A⁻¹ b for vectors of 3n entries (vertex-major). `x` may alias `b`.
-void solve_block_ldlt(const BlockLdlt& ldlt, const double* b, double* x);
+// x = A⁻¹ b for vectors of 3n entries (vertex-major). `x` may alias `b`. On the supernodal path the
+// subtree tasks run through `run`; the result is bit-identical whatever it does.
+void solve_block_ldlt(const BlockLdlt& ldlt, const double* b, double* x, const RangeRunner& run = run_serial);
 
 // Heap bytes held by the analysis and the factor (capacity based), for memory accounting.
 size_t block_ldlt_bytes(const BlockLdlt& ldlt);

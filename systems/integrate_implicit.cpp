@@ -487,7 +487,7 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
       }
       s.stats.regularised += 1;
     }
-    solve_block_ldlt(s.ldlt, s.rhs.data(), s.solution.data());
+    solve_block_ldlt(s.ldlt, s.rhs.data(), s.solution.data(), params.run);
     if (!s.solution.allFinite()) {
       s.stats.failures += 1;
       return false;

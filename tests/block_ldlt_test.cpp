@@ -389,7 +389,7 @@ TEST(BlockLdlt, SupernodalFactorRefusesPivotsAnywhereAndRecovers) {
 
 TEST(BlockLdlt, SupernodalChunksAndTasksGiveTheBitIdenticalFactorInAnyOrder) {
   // One task against six tasks, with the tasks and the top supernodes' row chunks run in reverse order on
-  // real threads: every entry of every panel must come out bit-identical.
+  // real threads: every entry of every panel, and of a solve, must come out bit-identical.
   std::mt19937 rng(29);
   const int32_t w = 30, h = 24, n = w * h;
   const Keys keys = sheet_pattern(w, h);
@@ -410,4 +410,11 @@ TEST(BlockLdlt, SupernodalChunksAndTasksGiveTheBitIdenticalFactorInAnyOrder) {
     for (size_t p = 0; p < serial.supernodes.panel.size(); ++p)
       ASSERT_EQ(serial.supernodes.panel[p], split.supernodes.panel[p]) << p;
   }
+  // The solve: the split factor's tasks on reversed threads give the one-task solve's bits.
+  const Eigen::VectorXd b = Eigen::VectorXd::Random(3 * n);
+  Eigen::VectorXd x_serial(3 * n), x_split(3 * n);
+  solve_block_ldlt(serial, b.data(), x_serial.data());
+  solve_block_ldlt(split, b.data(), x_split.data(), reversed_threads);
+  for (int32_t i = 0; i < 3 * n; ++i) ASSERT_EQ(x_serial[i], x_split[i]) << i;
+  EXPECT_LE((dense(keys, values, n) * x_split - b).norm(), 1e-11 * b.norm());
 }
