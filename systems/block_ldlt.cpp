@@ -824,14 +824,13 @@ void solve_block_ldlt(const BlockLdlt& f, const double* b, double* x, const Rang
         for (int32_t k = begin; k < end; ++k)
           for (int32_t q = f.task_start[k]; q < f.task_start[k + 1]; ++q) forward(f.task_nodes[q], 0);
       });
-      std::vector<uint8_t> is_top(supernodes, 0);
-      for (int32_t s : f.top_nodes) is_top[s] = 1;
+      auto is_top = [&](int32_t s) { return sf.top_column[sf.super_start[s]] != 0; };
       for (int32_t s = 0; s < supernodes; ++s) {
-        if (is_top[s]) forward(s, -1);
+        if (is_top(s)) forward(s, -1);
         else apply_below(s, 1, bd + sf.below_offset[s]);
       }
       for (int32_t s = supernodes - 1; s >= 0; --s)
-        if (is_top[s]) backward(s);
+        if (is_top(s)) backward(s);
       run(tasks, 1, [&](int32_t begin, int32_t end) {
         for (int32_t k = begin; k < end; ++k)
           for (int32_t q = f.task_start[k + 1] - 1; q >= f.task_start[k]; --q) backward(f.task_nodes[q]);
