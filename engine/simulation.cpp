@@ -437,11 +437,7 @@ struct Simulation::Impl {
         compute_forces();
       }
       // Vertex ids changed: find the candidates again and go on with the ones not yet treated.
-      {
-        ScopedTimer timer(profile.candidates);
-        find_candidates(sheet.verts, sheet.topo.boundary_vertices, sheet.tips, sheet.fingers, sheet.tears,
-                        sheet.material, fiber, candidates, fiber_cache);
-      }
+      run_candidates();
       index = 0;
       ++propagations;
     }

@@ -92,11 +92,10 @@ int count_at(const Sheet& s, const Vec2& r) {
   return n;
 }
 
-// A boundary vertex, u in [0, 1) choosing among them in id order.
+// A boundary vertex, u in [0, 1) choosing among them in id order (the topology's list, which
+// check_mesh_invariants compares with a full rebuild after every cut).
 int32_t random_boundary_vertex(const Sheet& s, double u) {
-  std::vector<int32_t> boundary;
-  for (int32_t v = 0; v < s.verts.size(); ++v)
-    if (s.verts.flags[v] & kBoundary) boundary.push_back(v);
+  const std::vector<int32_t>& boundary = s.topo.boundary_vertices;
   return boundary[static_cast<size_t>(u * boundary.size()) % boundary.size()];
 }
 
