@@ -4,7 +4,7 @@ JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 SAN_JOBS ?= 2
 
-.PHONY: deps configure build demo test bench clean check-sanitize fuzz soak
+.PHONY: deps configure build demo test bench bench-batch clean check-sanitize fuzz soak
 
 deps:
 	@bash scripts/install-deps.sh
@@ -24,6 +24,11 @@ test: build
 
 bench: build
 	@bash scripts/run-bench.sh $(BUILD)
+
+# Issue 6's batch scaling (2 threads against 1, with a two-process control), ~3 min; appends to
+# bench/results/<date>-batch-scaling.txt.
+bench-batch: build
+	@python3 scripts/batch-scaling.py --bin $(BUILD)/bin/papertear --out bench/results/$(shell date +%Y-%m-%d)-batch-scaling.txt
 
 # Reliability (issue 9). Each uses its own build directory (build-asan, build-tsan, build-fuzz, build-soak).
 # ASan+UBSan over the whole suite, then TSan over the threaded tests.
