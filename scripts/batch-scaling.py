@@ -31,9 +31,13 @@ def batch(args, threads, out_dir):
     return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
-def sheet_frames_per_s(out_dir):
+def batch_json(out_dir):
     with open(os.path.join(out_dir, "batch.json")) as f:
-        return json.load(f)["sheet_frames_per_s"]
+        return json.load(f)
+
+
+def sheet_frames_per_s(out_dir):
+    return batch_json(out_dir)["sheet_frames_per_s"]
 
 
 def run_one(args, threads, tmp):
@@ -48,8 +52,10 @@ def run_pair(args, tmp):
     procs = [batch(args, 1, d) for d in dirs]
     if any(p.wait() != 0 for p in procs):
         sys.exit("batch-scaling: a control process failed")
-    # The two processes run side by side over (nearly) the same interval: their rates add.
-    return sum(sheet_frames_per_s(d) for d in dirs)
+    # All the sheet-frames of both over the slower one's time: summing the two rates would count the
+    # faster one's rate for the whole interval, and the slower one ran alone (faster) at its end.
+    results = [batch_json(d) for d in dirs]
+    return sum(r["sheet_frames_per_s"] * r["wall_s"] for r in results) / max(r["wall_s"] for r in results)
 
 
 def main():
