@@ -183,6 +183,34 @@ void BM_TearAdvance(benchmark::State& state) {
 }
 BENCHMARK(BM_TearAdvance)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
+// The same tear, but every cut finds the caches as a frame leaves them: before each cut (not timed) 4 MB
+// are read and written, as the frame's physics does with the solver's arrays between two tearing steps.
+// The gap to BM_TearAdvance is what the in-frame cut pays for cold data, not for more work.
+void BM_TearAdvanceColdCache(benchmark::State& state) {
+  BentSheet b = bent_sheet(static_cast<int32_t>(state.range(0)));
+  const double edge = std::sqrt(4 / std::sqrt(3.0) * total_rest_area(b.sheet.tris) / b.sheet.tris.size());
+  const Vec2 direction = Vec2(0.1, -1).normalized();
+  Sheet sheet = b.sheet;
+  reserve_for_cuts(sheet);
+  int32_t tip = b.tip;
+  std::vector<double> other(512 * 1024, 1.0);
+  for (auto _ : state) {
+    state.PauseTiming();
+    if (tip < 0 || sheet.verts.rest[tip].y() < 0.1) {
+      sheet = b.sheet;
+      reserve_for_cuts(sheet);
+      tip = b.tip;
+    }
+    for (double& x : other) x = x * 0.5 + 0.5;
+    benchmark::DoNotOptimize(other.data());
+    state.ResumeTiming();
+    const Vec2 from = sheet.verts.rest[tip];
+    const CutResult r = cut_tear_segment(tip, from + 0.7 * edge * direction, direction, 0, RemeshParams{}, sheet);
+    tip = r.cut && !r.reached_boundary ? r.tip_vertex : -1;
+  }
+}
+BENCHMARK(BM_TearAdvanceColdCache)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
 }  // namespace
 
 // The A4 sheet's matrix: keys, values and the vertices' rest coordinates.
