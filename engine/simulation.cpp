@@ -31,6 +31,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <set>
 #include <stdexcept>
 
 namespace pt {
@@ -113,8 +114,6 @@ struct Simulation::Impl {
   double driving_force_radius = 0.04;  // m
   DrivingForceScratch driving_scratch;
   std::vector<int32_t> singular_vertices;  // fingers and tips: kept out of a J-integral's domain
-  std::vector<Vec2> tearing_visited;        // run_tearing's scratch, kept between frames
-  std::vector<int32_t> tearing_extended;
   double max_tip_turn = 75.0 * 3.14159265358979323846 / 180.0;  // rad, largest turn of a tip per step
   double shielding_radius = 0.01;  // m
 
@@ -320,21 +319,16 @@ struct Simulation::Impl {
   // Paper Fig. 4 steps 2–4 for each potential tearing point in turn: clustering, propagation,
   // remeshing, then one relaxation step so the lips move apart before the next point is treated.
   void run_tearing() {
-    // Pattern positions already treated, and tears already propagated, this frame. A frame treats a few
-    // dozen candidates at most, so a linear search in reused vectors beats a node-based set's allocations.
-    std::vector<Vec2>& visited = tearing_visited;
-    std::vector<int32_t>& extended = tearing_extended;
-    visited.clear();
-    extended.clear();
+    std::set<std::pair<double, double>> visited;  // pattern positions already treated this frame
+    std::set<int32_t> extended;                   // tears already propagated this frame
     size_t index = 0;
     int32_t propagations = 0;
     const int32_t max_propagations = 64;  // a frame's budget: every propagation re-lists the candidates
     while (index < candidates.size() && propagations < max_propagations) {
       const Candidate c = candidates[index++];
       const Vec2 uv = sheet.verts.rest[c.vertex];
-      if (std::find(visited.begin(), visited.end(), uv) != visited.end()) continue;
-      visited.push_back(uv);
-      if (c.tear >= 0 && std::find(extended.begin(), extended.end(), c.tear) != extended.end()) continue;
+      if (!visited.insert({uv.x(), uv.y()}).second) continue;
+      if (c.tear >= 0 && extended.count(c.tear)) continue;
       // Crack shielding: an active tip releases the stress around it, so no new tear starts within
       // shielding_radius of one (otherwise the lips right behind a tip, loaded by the same stress
       // field but discretised coarsely, spawn spurious branches every frame).
@@ -435,7 +429,7 @@ struct Simulation::Impl {
         }
         if (sheet.topo.piece_count > pieces_before) events.push_back({TearEvent::PieceSeparated, tear_id, frame});
         refresh_role_flags();
-        if (std::find(extended.begin(), extended.end(), tear_id) == extended.end()) extended.push_back(tear_id);
+        extended.insert(tear_id);
       }
       {
         ScopedTimer timer(profile.relaxation);
