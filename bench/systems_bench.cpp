@@ -157,7 +157,10 @@ BENCHMARK(BM_RemeshOneCut)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMi
 // A tear advancing from the tip by steps of 0.7 mean edge length, one cut per iteration, as the engine cuts
 // it: the local change per cut is the same at every resolution, so the time per cut should not grow with
 // the sheet (issue 3). The sheet is put back (not timed) before the tip nears the bottom edge.
-void BM_TearAdvance(benchmark::State& state) {
+// With `cold_caches`, 4 MB are read and written before every cut (not timed), as the frame's physics does
+// with the solver's arrays between two tearing steps: the gap between the two is what a cut in a frame
+// pays for cold code and data, not for more work.
+void tear_advance(benchmark::State& state, bool cold_caches) {
   BentSheet b = bent_sheet(static_cast<int32_t>(state.range(0)));
   const double edge = std::sqrt(4 / std::sqrt(3.0) * total_rest_area(b.sheet.tris) / b.sheet.tris.size());
   const Vec2 direction = Vec2(0.1, -1).normalized();
@@ -165,12 +168,18 @@ void BM_TearAdvance(benchmark::State& state) {
   reserve_for_cuts(sheet);
   int32_t tip = b.tip;
   int64_t cuts = 0;
+  std::vector<double> other(cold_caches ? 512 * 1024 : 0, 1.0);
   for (auto _ : state) {
-    if (tip < 0 || sheet.verts.rest[tip].y() < 0.1) {
+    const bool restart = tip < 0 || sheet.verts.rest[tip].y() < 0.1;
+    if (restart || cold_caches) {
       state.PauseTiming();
-      sheet = b.sheet;
-      reserve_for_cuts(sheet);
-      tip = b.tip;
+      if (restart) {
+        sheet = b.sheet;
+        reserve_for_cuts(sheet);
+        tip = b.tip;
+      }
+      for (double& x : other) x = x * 0.5 + 0.5;
+      benchmark::DoNotOptimize(other.data());
       state.ResumeTiming();
     }
     const Vec2 from = sheet.verts.rest[tip];
@@ -181,34 +190,9 @@ void BM_TearAdvance(benchmark::State& state) {
   state.counters["edge_mm"] = 1e3 * edge;
   state.counters["cut_fraction"] = static_cast<double>(cuts) / static_cast<double>(state.iterations());
 }
+void BM_TearAdvance(benchmark::State& state) { tear_advance(state, false); }
+void BM_TearAdvanceColdCache(benchmark::State& state) { tear_advance(state, true); }
 BENCHMARK(BM_TearAdvance)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
-
-// The same tear, but every cut finds the caches as a frame leaves them: before each cut (not timed) 4 MB
-// are read and written, as the frame's physics does with the solver's arrays between two tearing steps.
-// The gap to BM_TearAdvance is what the in-frame cut pays for cold data, not for more work.
-void BM_TearAdvanceColdCache(benchmark::State& state) {
-  BentSheet b = bent_sheet(static_cast<int32_t>(state.range(0)));
-  const double edge = std::sqrt(4 / std::sqrt(3.0) * total_rest_area(b.sheet.tris) / b.sheet.tris.size());
-  const Vec2 direction = Vec2(0.1, -1).normalized();
-  Sheet sheet = b.sheet;
-  reserve_for_cuts(sheet);
-  int32_t tip = b.tip;
-  std::vector<double> other(512 * 1024, 1.0);
-  for (auto _ : state) {
-    state.PauseTiming();
-    if (tip < 0 || sheet.verts.rest[tip].y() < 0.1) {
-      sheet = b.sheet;
-      reserve_for_cuts(sheet);
-      tip = b.tip;
-    }
-    for (double& x : other) x = x * 0.5 + 0.5;
-    benchmark::DoNotOptimize(other.data());
-    state.ResumeTiming();
-    const Vec2 from = sheet.verts.rest[tip];
-    const CutResult r = cut_tear_segment(tip, from + 0.7 * edge * direction, direction, 0, RemeshParams{}, sheet);
-    tip = r.cut && !r.reached_boundary ? r.tip_vertex : -1;
-  }
-}
 BENCHMARK(BM_TearAdvanceColdCache)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
