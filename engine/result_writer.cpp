@@ -303,6 +303,12 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out) {
                            {"regularised", solver.regularised},
                            {"failures", solver.failures},
                            {"remeshes", sim.remesh_count()}};
+  // Where the integrator's time went, ms summed over the run (wall time, so not part of the results).
+  result["solver_ms"] = ojson{{"structure", num(solver.structure_ms)},
+                              {"analysis", num(solver.analysis_ms)},
+                              {"assembly", num(solver.assembly_ms)},
+                              {"factorization", num(solver.factorization_ms)},
+                              {"solve", num(solver.solve_ms)}};
 
   if (!num.finite) result["status"] = "error";
   out = std::move(result);

@@ -5,7 +5,9 @@
 #include "components/capacity_bytes.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <optional>
 
 namespace pt {
 
@@ -110,6 +112,21 @@ size_t implicit_solver_bytes(const ImplicitSolver& s) {
 }
 
 namespace {
+
+// Adds the wall time of its scope, in ms, to `total` (ImplicitStats' per-part times).
+class AddElapsedMs {
+ public:
+  explicit AddElapsedMs(double& total) : total_(total), start_(std::chrono::steady_clock::now()) {}
+  ~AddElapsedMs() {
+    total_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
+  }
+  AddElapsedMs(const AddElapsedMs&) = delete;
+  AddElapsedMs& operator=(const AddElapsedMs&) = delete;
+
+ private:
+  double& total_;
+  std::chrono::steady_clock::time_point start_;
+};
 
 void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vector<int32_t> held_sorted,
                      ImplicitSolver& s) {
@@ -228,6 +245,7 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
   const BlockLdltParams ldlt_params;
   if (s.free_count < ldlt_params.dissection_leaf) free_rest.clear();  // not read by the analysis
   if (!s.analysed || s.block_key != s.analysed_keys || free_rest != s.analysed_rest) {
+    AddElapsedMs timer(s.stats.analysis_ms);
     analyze_block_ldlt(s.free_count, s.block_key, ldlt_params, s.ldlt, free_rest, params.run);
     s.analysed_keys = s.block_key;
     s.analysed_rest = std::move(free_rest);
@@ -347,8 +365,13 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   if (!solver) solver.reset(new ImplicitSolver);
   ImplicitSolver& s = *solver;
   if (!s.analysed || s.version != sheet.topology_version || s.held != held_sorted || s.dt != params.dt ||
-      !(s.material == key_of(sheet.material)) || s.alpha != params.mass_damping || s.beta != params.stiffness_damping)
+      !(s.material == key_of(sheet.material)) || s.alpha != params.mass_damping || s.beta != params.stiffness_damping) {
+    const double analysis_before = s.stats.analysis_ms;
+    const auto start = std::chrono::steady_clock::now();
     build_structure(sheet, params, held_sorted, s);
+    s.stats.structure_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() -
+                            (s.stats.analysis_ms - analysis_before);
+  }
 
   const double h = params.dt;
   const double kscale = h * h + h * s.beta;
@@ -439,6 +462,7 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   // factorise, solve: vnext holds v⁺ of every vertex.
   auto solve = [&]() -> bool {
     std::vector<Mat3>& values = s.block_values;
+    std::optional<AddElapsedMs> assembly_timer(std::in_place, s.stats.assembly_ms);
     std::copy(s.base_values.begin(), s.base_values.end(), values.begin());
     s.rhs.setZero();
     for (int32_t v = 0; v < nv; ++v) {
@@ -463,7 +487,9 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
     }
     for (const ImplicitSolver::HeldCoupling& c : s.bending_held)
       s.rhs.segment<3>(3 * c.row) -= c.weight * vnext[c.held_vertex];
+    assembly_timer.reset();
 
+    std::optional<AddElapsedMs> factorization_timer(std::in_place, s.stats.factorization_ms);
     s.stats.factorizations += 1;
     if (!factorize_block_ldlt(values, params.run, s.ldlt)) {
       // The matrix is positive definite in exact arithmetic (lumped masses plus positive semidefinite
@@ -487,7 +513,11 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
       }
       s.stats.regularised += 1;
     }
-    solve_block_ldlt(s.ldlt, s.rhs.data(), s.solution.data(), params.run);
+    factorization_timer.reset();
+    {
+      AddElapsedMs timer(s.stats.solve_ms);
+      solve_block_ldlt(s.ldlt, s.rhs.data(), s.solution.data(), params.run);
+    }
     if (!s.solution.allFinite()) {
       s.stats.failures += 1;
       return false;

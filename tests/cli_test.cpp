@@ -250,6 +250,12 @@ TEST_F(Cli, RunWritesEveryResultKey) {
   EXPECT_GE(j["solver"]["factorizations"].get<int>(), 3 * 10);
   EXPECT_GE(j["solver"]["analyses"].get<int>(), 1);
   EXPECT_EQ(j["solver"]["failures"].get<int>(), 0);
+  // Where the solver's time went: every part ran at least once (wall times, ms over the run).
+  ASSERT_TRUE(j.contains("solver_ms"));
+  for (const char* key : {"structure", "analysis", "assembly", "factorization", "solve"}) {
+    ASSERT_TRUE(j["solver_ms"][key].is_number()) << "solver_ms." << key;
+    EXPECT_GT(j["solver_ms"][key].get<double>(), 0.0) << "solver_ms." << key;
+  }
 
   // No NaN, no inf: the text parses as JSON (which has neither) and has no null numbers.
   const std::string text = read_file(out / "result.json");
