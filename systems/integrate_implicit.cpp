@@ -367,10 +367,11 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   if (!s.analysed || s.version != sheet.topology_version || s.held != held_sorted || s.dt != params.dt ||
       !(s.material == key_of(sheet.material)) || s.alpha != params.mass_damping || s.beta != params.stiffness_damping) {
     const double analysis_before = s.stats.analysis_ms;
-    const auto start = std::chrono::steady_clock::now();
-    build_structure(sheet, params, held_sorted, s);
-    s.stats.structure_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() -
-                            (s.stats.analysis_ms - analysis_before);
+    {
+      AddElapsedMs timer(s.stats.structure_ms);
+      build_structure(sheet, params, held_sorted, s);
+    }
+    s.stats.structure_ms -= s.stats.analysis_ms - analysis_before;  // the analysis has its own total
   }
 
   const double h = params.dt;
