@@ -77,10 +77,11 @@ BENCHMARK(BM_Frame)
 // Issue 6's large-sheet goal: the ~10 000-triangle A4 scene, 2 threads, with fewer substeps per frame (the
 // implicit integrator is unconditionally stable; a big sheet has a fine mesh, so one or two backward Euler
 // steps per frame still resolve its motion at 30 frames/s). Same counters as BM_Frame.
-void BM_FrameFewSubsteps(benchmark::State& state) {
+void frame_few_substeps(benchmark::State& state, const std::string& relaxation_mode) {
   const int32_t triangles = static_cast<int32_t>(state.range(0));
   Scenario s = bench::a4_scene(triangles);
   s.sim.substeps = static_cast<int32_t>(state.range(1));
+  s.sim.relaxation = relaxation_mode;
   EngineOptions options;
   options.threads = static_cast<int32_t>(state.range(2));
   Simulation sim(s, options);
@@ -102,9 +103,21 @@ void BM_FrameFewSubsteps(benchmark::State& state) {
   state.counters["factorizations"] = static_cast<double>(solver.factorizations) / n;
   state.counters["analyses"] = static_cast<double>(solver.analyses) / n;
   add_solver_ms_counters(solver, n, state);
+  state.counters["cuts"] = static_cast<double>(sim.remesh_count()) / n;  // per frame
 }
+void BM_FrameFewSubsteps(benchmark::State& state) { frame_few_substeps(state, "substep"); }
 BENCHMARK(BM_FrameFewSubsteps)
     ->ArgsProduct({{10000}, {1, 2}, {2}})
+    ->ArgNames({"triangles", "substeps", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(60)
+    ->UseRealTime();
+
+// The same with "relaxation": "next_frame": a propagation is relaxed by the next frame's substep instead
+// of one more substep (a whole factorisation at this size), and at most one propagates per frame.
+void BM_FrameNextFrameRelaxation(benchmark::State& state) { frame_few_substeps(state, "next_frame"); }
+BENCHMARK(BM_FrameNextFrameRelaxation)
+    ->ArgsProduct({{10000}, {1}, {2}})
     ->ArgNames({"triangles", "substeps", "threads"})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(60)

@@ -278,7 +278,7 @@ void read_detail(const Reader& r, const json& j, DetailSettings& d) {
 void read_sim(const Reader& r, const json& j, SimSettings& sim) {
   const std::string path = "sim";
   r.expect_object(j, path);
-  r.check_keys(j, path, {"fps", "substeps", "frames", "gravity", "iterations", "solver"});
+  r.check_keys(j, path, {"fps", "substeps", "frames", "gravity", "iterations", "solver", "relaxation"});
   if (j.contains("fps")) sim.fps = r.number(j["fps"], child(path, "fps"));
   if (j.contains("substeps"))
     sim.substeps = static_cast<int32_t>(r.integer(j["substeps"], child(path, "substeps"), 1, kMaxSubsteps));
@@ -288,6 +288,7 @@ void read_sim(const Reader& r, const json& j, SimSettings& sim) {
   if (j.contains("iterations"))
     sim.iterations = static_cast<int32_t>(r.integer(j["iterations"], child(path, "iterations"), 1, kMaxIterations));
   if (j.contains("solver")) sim.solver = r.string(j["solver"], child(path, "solver"));
+  if (j.contains("relaxation")) sim.relaxation = r.string(j["relaxation"], child(path, "relaxation"));
 }
 
 void read_tearing(const Reader& r, const json& j, TearingSettings& t) {
@@ -524,6 +525,8 @@ void validate_scenario(const Scenario& s) {
   check_vec(file, "sim.gravity", s.sim.gravity.data(), 3, kMaxGravity);
   if (s.sim.solver != "implicit" && s.sim.solver != "projective")
     fail(file, "sim.solver", "unknown solver \"" + s.sim.solver + "\" (implicit or projective)");
+  if (s.sim.relaxation != "substep" && s.sim.relaxation != "next_frame")
+    fail(file, "sim.relaxation", "unknown relaxation \"" + s.sim.relaxation + "\" (substep or next_frame)");
 
   // Tearing.
   if (s.tearing.direction != "bisector" && s.tearing.direction != "material_force")

@@ -40,6 +40,12 @@ struct SimSettings {
   Vec3 gravity = Vec3(0, 0, -9.81);
   int32_t iterations = 2;  // projective dynamics local/global iterations per substep
   std::string solver = "implicit";  // "implicit" (linearly implicit corotated) or "projective"
+  // The relaxation after a propagation (paper Fig. 4, step 4), so that the lips move apart before the next
+  // propagation: "substep" runs one more implicit substep right after the cut, then treats the frame's
+  // other candidates; "next_frame" leaves it to the next frame's physics and treats no other candidate
+  // this frame (at most one propagation per frame, no extra substep: the big sheet's choice, where a
+  // substep is a whole factorisation).
+  std::string relaxation = "substep";
 };
 
 struct FingerSpec {

@@ -111,6 +111,7 @@ struct Simulation::Impl {
   PropagationParams propagation_params;
   RemeshParams remesh_params;
   bool material_force_direction = false;  // "tearing": {"direction": "material_force"}
+  bool relax_next_frame = false;          // "sim": {"relaxation": "next_frame"}
   double driving_force_radius = 0.04;  // m
   DrivingForceScratch driving_scratch;
   std::vector<int32_t> singular_vertices;  // fingers and tips: kept out of a J-integral's domain
@@ -177,6 +178,7 @@ struct Simulation::Impl {
     membrane = membrane_params(m);
     take_propagation_params(m);
     material_force_direction = scenario.tearing.direction == "material_force";
+    relax_next_frame = scenario.sim.relaxation == "next_frame";
     driving_force_radius = scenario.tearing.radius;
     remesh_params.snap_fraction = scenario.tearing.snap_fraction();
 
@@ -430,6 +432,13 @@ struct Simulation::Impl {
         if (sheet.topo.piece_count > pieces_before) events.push_back({TearEvent::PieceSeparated, tear_id, frame});
         refresh_role_flags();
         extended.insert(tear_id);
+      }
+      if (relax_next_frame) {
+        // The next frame's physics is this propagation's relaxation, and no other point propagates before
+        // it. The forces and candidates are brought to the new mesh (ids changed) for what reads them.
+        run_forces();
+        run_candidates();
+        break;
       }
       {
         ScopedTimer timer(profile.relaxation);

@@ -350,6 +350,21 @@ TEST(BadInput, UnknownSolver) {
   EXPECT_NE(message.find("sim.solver: unknown solver \"euler\""), std::string::npos) << message;
 }
 
+TEST(Scenario, RelaxationIsRead) {
+  const pt::Scenario s = pt::parse_scenario(
+      R"({"sheet": {"preset": "A6"}, "sim": {"relaxation": "next_frame"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
+      "x.json");
+  EXPECT_EQ(s.sim.relaxation, "next_frame");
+  EXPECT_EQ(pt::SimSettings().relaxation, "substep");
+}
+
+TEST(BadInput, UnknownRelaxation) {
+  const std::string message = error_of_text(
+      R"({"sheet": {"preset": "A6"}, "sim": {"relaxation": "none"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
+      "x.json");
+  EXPECT_NE(message.find("sim.relaxation: unknown relaxation \"none\""), std::string::npos) << message;
+}
+
 TEST(Scenario, TearingIsRead) {
   const pt::Scenario d = pt::parse_scenario(
       R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})", "x.json");
