@@ -335,34 +335,29 @@ TEST(BadInput, NegativeSeed) {
   EXPECT_NE(message.find("sheet.mesh_seed: must be at least 0"), std::string::npos) << message;
 }
 
-TEST(Scenario, SolverIsRead) {
-  const pt::Scenario s = pt::parse_scenario(
-      R"({"sheet": {"preset": "A6"}, "sim": {"solver": "projective"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
-      "x.json");
-  EXPECT_EQ(s.sim.solver, "projective");
-  EXPECT_EQ(pt::SimSettings().solver, "implicit");
-}
-
-TEST(BadInput, UnknownSolver) {
-  const std::string message = error_of_text(
-      R"({"sheet": {"preset": "A6"}, "sim": {"solver": "euler"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
-      "x.json");
-  EXPECT_NE(message.find("sim.solver: unknown solver \"euler\""), std::string::npos) << message;
-}
-
-TEST(Scenario, RelaxationIsRead) {
-  const pt::Scenario s = pt::parse_scenario(
-      R"({"sheet": {"preset": "A6"}, "sim": {"relaxation": "next_frame"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
-      "x.json");
-  EXPECT_EQ(s.sim.relaxation, "next_frame");
-  EXPECT_EQ(pt::SimSettings().relaxation, "substep");
-}
-
-TEST(BadInput, UnknownRelaxation) {
-  const std::string message = error_of_text(
-      R"({"sheet": {"preset": "A6"}, "sim": {"relaxation": "none"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
-      "x.json");
-  EXPECT_NE(message.find("sim.relaxation: unknown relaxation \"none\""), std::string::npos) << message;
+// The sim section's named choices: each is read, has its default, and an unknown value is an input error
+// naming its path and the values it takes.
+TEST(Scenario, SimChoicesAreReadAndValidated) {
+  struct Choice {
+    const char* key;
+    const char* value;
+    std::string pt::SimSettings::*field;
+    const char* default_value;
+    const char* error;  // for the value "x"
+  };
+  for (const Choice& c : {Choice{"solver", "projective", &pt::SimSettings::solver, "implicit",
+                                 "sim.solver: unknown solver \"x\" (implicit or projective)"},
+                          Choice{"relaxation", "next_frame", &pt::SimSettings::relaxation, "substep",
+                                 "sim.relaxation: unknown relaxation \"x\" (substep or next_frame)"}}) {
+    auto text = [&](const std::string& value) {
+      return std::string(R"({"sheet": {"preset": "A6"}, "sim": {")") + c.key + R"(": ")" + value +
+             R"("}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})";
+    };
+    EXPECT_EQ(pt::parse_scenario(text(c.value), "x.json").sim.*c.field, c.value) << c.key;
+    EXPECT_EQ(pt::SimSettings().*c.field, c.default_value) << c.key;
+    const std::string message = error_of_text(text("x"), "x.json");
+    EXPECT_NE(message.find(c.error), std::string::npos) << message;
+  }
 }
 
 TEST(Scenario, TearingIsRead) {
