@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <optional>
 
 namespace pt {
 
@@ -463,58 +462,60 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   // factorise, solve: vnext holds v⁺ of every vertex.
   auto solve = [&]() -> bool {
     std::vector<Mat3>& values = s.block_values;
-    std::optional<AddElapsedMs> assembly_timer(std::in_place, s.stats.assembly_ms);
-    std::copy(s.base_values.begin(), s.base_values.end(), values.begin());
-    s.rhs.setZero();
-    for (int32_t v = 0; v < nv; ++v) {
-      const int32_t i = s.free_index[v];
-      if (i < 0) continue;
-      s.rhs.segment<3>(3 * i) = V.mass[v] * V.v[v] + h * (V.force[v] + V.mass[v] * params.gravity);
-    }
-    for (int32_t t = 0; t < nt; ++t)
-      for (int k = 0; k < 6; ++k) {
-        const int32_t dest = s.tri_dest[t][k];
-        if (dest >= 0)
-          values[dest] += s.tri_k[t][k];
-        else if (dest < -1)
-          values[-2 - dest] += s.tri_k[t][k].transpose();
+    {
+      AddElapsedMs timer(s.stats.assembly_ms);
+      std::copy(s.base_values.begin(), s.base_values.end(), values.begin());
+      s.rhs.setZero();
+      for (int32_t v = 0; v < nv; ++v) {
+        const int32_t i = s.free_index[v];
+        if (i < 0) continue;
+        s.rhs.segment<3>(3 * i) = V.mass[v] * V.v[v] + h * (V.force[v] + V.mass[v] * params.gravity);
       }
-    for (const ImplicitSolver::HeldStiffness& c : s.stiffness_held) {
-      const Mat3& kab = s.tri_k[c.triangle][c.pair];
-      if (c.transpose)
-        s.rhs.segment<3>(3 * c.row) -= kab.transpose() * vnext[c.held_vertex];
-      else
-        s.rhs.segment<3>(3 * c.row) -= kab * vnext[c.held_vertex];
+      for (int32_t t = 0; t < nt; ++t)
+        for (int k = 0; k < 6; ++k) {
+          const int32_t dest = s.tri_dest[t][k];
+          if (dest >= 0)
+            values[dest] += s.tri_k[t][k];
+          else if (dest < -1)
+            values[-2 - dest] += s.tri_k[t][k].transpose();
+        }
+      for (const ImplicitSolver::HeldStiffness& c : s.stiffness_held) {
+        const Mat3& kab = s.tri_k[c.triangle][c.pair];
+        if (c.transpose)
+          s.rhs.segment<3>(3 * c.row) -= kab.transpose() * vnext[c.held_vertex];
+        else
+          s.rhs.segment<3>(3 * c.row) -= kab * vnext[c.held_vertex];
+      }
+      for (const ImplicitSolver::HeldCoupling& c : s.bending_held)
+        s.rhs.segment<3>(3 * c.row) -= c.weight * vnext[c.held_vertex];
     }
-    for (const ImplicitSolver::HeldCoupling& c : s.bending_held)
-      s.rhs.segment<3>(3 * c.row) -= c.weight * vnext[c.held_vertex];
-    assembly_timer.reset();
 
-    std::optional<AddElapsedMs> factorization_timer(std::in_place, s.stats.factorization_ms);
-    s.stats.factorizations += 1;
-    if (!factorize_block_ldlt(values, params.run, s.ldlt)) {
-      // The matrix is positive definite in exact arithmetic (lumped masses plus positive semidefinite
-      // stiffness), so a refused pivot is rounding: a sliver's stiffness 10⁸ times its neighbours' puts the
-      // condition near 1/ε. Rather than freeze the sheet for the substep, shift the diagonal by 10⁻¹⁴ of
-      // its largest entry (then 10⁻¹², 10⁻¹⁰) and factorise again: extra inertia for that substep only,
-      // comparable to a vertex's mass when a sliver makes the largest entry huge, negligible otherwise.
-      double largest = 0;
-      for (int32_t i = 0; i < s.free_count; ++i)
-        largest = std::max(largest, values[s.diagonal_key[i]].diagonal().maxCoeff());
-      bool factored = false;
-      for (const double relative : {1e-14, 1e-12, 1e-10}) {
+    {
+      AddElapsedMs timer(s.stats.factorization_ms);  // a refused factorisation returns from inside
+      s.stats.factorizations += 1;
+      if (!factorize_block_ldlt(values, params.run, s.ldlt)) {
+        // The matrix is positive definite in exact arithmetic (lumped masses plus positive semidefinite
+        // stiffness), so a refused pivot is rounding: a sliver's stiffness 10⁸ times its neighbours' puts the
+        // condition near 1/ε. Rather than freeze the sheet for the substep, shift the diagonal by 10⁻¹⁴ of
+        // its largest entry (then 10⁻¹², 10⁻¹⁰) and factorise again: extra inertia for that substep only,
+        // comparable to a vertex's mass when a sliver makes the largest entry huge, negligible otherwise.
+        double largest = 0;
         for (int32_t i = 0; i < s.free_count; ++i)
-          values[s.diagonal_key[i]].diagonal().array() += relative * largest;
-        s.stats.factorizations += 1;
-        if ((factored = factorize_block_ldlt(values, params.run, s.ldlt))) break;
+          largest = std::max(largest, values[s.diagonal_key[i]].diagonal().maxCoeff());
+        bool factored = false;
+        for (const double relative : {1e-14, 1e-12, 1e-10}) {
+          for (int32_t i = 0; i < s.free_count; ++i)
+            values[s.diagonal_key[i]].diagonal().array() += relative * largest;
+          s.stats.factorizations += 1;
+          if ((factored = factorize_block_ldlt(values, params.run, s.ldlt))) break;
+        }
+        if (!factored) {
+          s.stats.failures += 1;
+          return false;
+        }
+        s.stats.regularised += 1;
       }
-      if (!factored) {
-        s.stats.failures += 1;
-        return false;
-      }
-      s.stats.regularised += 1;
     }
-    factorization_timer.reset();
     {
       AddElapsedMs timer(s.stats.solve_ms);
       solve_block_ldlt(s.ldlt, s.rhs.data(), s.solution.data(), params.run);
