@@ -123,6 +123,17 @@ BENCHMARK(BM_FrameNextFrameRelaxation)
     ->Iterations(60)
     ->UseRealTime();
 
+// The same with "relaxation": "patch": the extra substep after a cut solves only the vertices within 3 cm
+// of the cut (systems/local_relaxation.hpp), the rest of the sheet held; other points propagate as with
+// "substep".
+void BM_FramePatchRelaxation(benchmark::State& state) { frame_few_substeps(state, "patch"); }
+BENCHMARK(BM_FramePatchRelaxation)
+    ->ArgsProduct({{10000}, {1}, {2}})
+    ->ArgNames({"triangles", "substeps", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(60)
+    ->UseRealTime();
+
 // The force kernel alone: corotated membrane corner forces over all triangles, one core.
 void BM_MembraneForces(benchmark::State& state) {
   Sheet sheet = build_sheet(bench::a4_scene(static_cast<int32_t>(state.range(0)), false));

@@ -278,7 +278,8 @@ void read_detail(const Reader& r, const json& j, DetailSettings& d) {
 void read_sim(const Reader& r, const json& j, SimSettings& sim) {
   const std::string path = "sim";
   r.expect_object(j, path);
-  r.check_keys(j, path, {"fps", "substeps", "frames", "gravity", "iterations", "solver", "relaxation"});
+  r.check_keys(j, path,
+               {"fps", "substeps", "frames", "gravity", "iterations", "solver", "relaxation", "relaxation_radius"});
   if (j.contains("fps")) sim.fps = r.number(j["fps"], child(path, "fps"));
   if (j.contains("substeps"))
     sim.substeps = static_cast<int32_t>(r.integer(j["substeps"], child(path, "substeps"), 1, kMaxSubsteps));
@@ -289,6 +290,8 @@ void read_sim(const Reader& r, const json& j, SimSettings& sim) {
     sim.iterations = static_cast<int32_t>(r.integer(j["iterations"], child(path, "iterations"), 1, kMaxIterations));
   if (j.contains("solver")) sim.solver = r.string(j["solver"], child(path, "solver"));
   if (j.contains("relaxation")) sim.relaxation = r.string(j["relaxation"], child(path, "relaxation"));
+  if (j.contains("relaxation_radius"))
+    sim.relaxation_radius = r.number(j["relaxation_radius"], child(path, "relaxation_radius"));
 }
 
 void read_tearing(const Reader& r, const json& j, TearingSettings& t) {
@@ -525,8 +528,14 @@ void validate_scenario(const Scenario& s) {
   check_vec(file, "sim.gravity", s.sim.gravity.data(), 3, kMaxGravity);
   if (s.sim.solver != "implicit" && s.sim.solver != "projective")
     fail(file, "sim.solver", "unknown solver \"" + s.sim.solver + "\" (implicit or projective)");
-  if (s.sim.relaxation != "substep" && s.sim.relaxation != "next_frame")
-    fail(file, "sim.relaxation", "unknown relaxation \"" + s.sim.relaxation + "\" (substep or next_frame)");
+  if (s.sim.relaxation != "substep" && s.sim.relaxation != "next_frame" && s.sim.relaxation != "patch")
+    fail(file, "sim.relaxation", "unknown relaxation \"" + s.sim.relaxation + "\" (substep, next_frame or patch)");
+  if (s.sim.relaxation == "patch" && s.sim.solver != "implicit")
+    fail(file, "sim.relaxation", "\"patch\" relaxes with the implicit solver; sim.solver is \"" + s.sim.solver + "\"");
+  check_positive(file, "sim.relaxation_radius", s.sim.relaxation_radius);
+  if (s.sim.relaxation_radius > kMaxCoordinate)
+    fail(file, "sim.relaxation_radius",
+         "absurd size " + fmt(s.sim.relaxation_radius) + " (at most " + fmt(kMaxCoordinate) + ")");
 
   // Tearing.
   if (s.tearing.direction != "bisector" && s.tearing.direction != "material_force")

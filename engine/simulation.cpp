@@ -12,6 +12,7 @@
 #include "systems/fingers.hpp"
 #include "systems/integrate.hpp"
 #include "systems/integrate_implicit.hpp"
+#include "systems/local_relaxation.hpp"
 #include "systems/material_force.hpp"
 #include "systems/membrane_forces.hpp"
 #include "systems/propagation.hpp"
@@ -112,6 +113,9 @@ struct Simulation::Impl {
   RemeshParams remesh_params;
   bool material_force_direction = false;  // "tearing": {"direction": "material_force"}
   bool relax_next_frame = false;          // "sim": {"relaxation": "next_frame"}
+  bool relax_patch = false;               // "sim": {"relaxation": "patch"}
+  LocalRelaxationParams local_relaxation;
+  LocalRelaxationScratch local_scratch;
   double driving_force_radius = 0.04;  // m
   DrivingForceScratch driving_scratch;
   std::vector<int32_t> singular_vertices;  // fingers and tips: kept out of a J-integral's domain
@@ -179,6 +183,8 @@ struct Simulation::Impl {
     take_propagation_params(m);
     material_force_direction = scenario.tearing.direction == "material_force";
     relax_next_frame = scenario.sim.relaxation == "next_frame";
+    relax_patch = scenario.sim.relaxation == "patch" && !use_projective;
+    local_relaxation.radius = scenario.sim.relaxation_radius;
     driving_force_radius = scenario.tearing.radius;
     remesh_params.snap_fraction = scenario.tearing.snap_fraction();
 
@@ -442,7 +448,14 @@ struct Simulation::Impl {
       }
       {
         ScopedTimer timer(profile.relaxation);
-        substep(1.0);
+        if (relax_patch) {
+          std::vector<int32_t> held;
+          std::vector<Vec3> target;
+          held_vertices(1.0, held, target);
+          relax_patch_after_cut(implicit_params, local_relaxation, uv, cut.end, held, target, local_scratch, sheet);
+        } else {
+          substep(1.0);
+        }
         compute_forces();
       }
       // Vertex ids changed: find the candidates again and go on with the ones not yet treated.
