@@ -452,7 +452,8 @@ struct Simulation::Impl {
           std::vector<int32_t> held;
           std::vector<Vec3> target;
           held_vertices(1.0, held, target);
-          relax_patch_after_cut(implicit_params, local_relaxation, uv, cut.end, held, target, local_scratch, sheet);
+          relax_patch_after_cut(implicit_params, local_relaxation, sheet.tears[tear_id].tips, held, target, local_scratch,
+                                sheet);
         } else {
           substep(1.0);
         }

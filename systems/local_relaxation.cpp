@@ -29,7 +29,7 @@ void copy_vertex(const Vertices& from_verts, int32_t from, int32_t to, Vertices&
 }  // namespace
 
 LocalRelaxationResult relax_patch_after_cut(const ImplicitParams& params, const LocalRelaxationParams& local,
-                                            const Vec2& from, const Vec2& to, const std::vector<int32_t>& held,
+                                            std::span<const Vec2> path, const std::vector<int32_t>& held,
                                             const std::vector<Vec3>& held_target, LocalRelaxationScratch& scratch,
                                             Sheet& sheet) {
   const Vertices& V = sheet.verts;
@@ -53,8 +53,23 @@ LocalRelaxationResult relax_patch_after_cut(const ImplicitParams& params, const 
       free_vertices.push_back(v);
     }
   };
-  for (int32_t v = 0; v < nv; ++v)
-    if (distance_to_segment(V.rest[v], from, to) <= local.radius) mark_free(v);
+  // The path's bounding box grown by the radius rejects most vertices with two comparisons.
+  Vec2 low = path.empty() ? Vec2::Zero() : path[0], high = low;
+  for (const Vec2& q : path) {
+    low = low.cwiseMin(q);
+    high = high.cwiseMax(q);
+  }
+  low.array() -= local.radius;
+  high.array() += local.radius;
+  for (int32_t v = 0; v < nv; ++v) {
+    const Vec2& q = V.rest[v];
+    if (q.x() < low.x() || q.y() < low.y() || q.x() > high.x() || q.y() > high.y()) continue;
+    for (size_t k = 0; k < path.size(); ++k)
+      if (distance_to_segment(q, path[k], path[std::min(k + 1, path.size() - 1)]) <= local.radius) {
+        mark_free(v);
+        break;
+      }
+  }
   for (int32_t v = 0; v < nv; ++v) {
     if (!(V.flags[v] & kNew)) continue;
     mark_free(v);

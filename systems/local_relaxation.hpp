@@ -23,6 +23,7 @@
 #include "components/sheet.hpp"
 #include "systems/integrate_implicit.hpp"
 
+#include <span>
 #include <vector>
 
 namespace pt {
@@ -57,7 +58,7 @@ struct LocalRelaxationResult {
 // are the sheet's prescribed vertices (fingers) and where they are held, as for implicit_substep. Writes x
 // and v of the patch's free vertices; every other vertex, and the rest of the sheet, is left unchanged.
 LocalRelaxationResult relax_patch_after_cut(const ImplicitParams& params, const LocalRelaxationParams& local,
-                                            const Vec2& from, const Vec2& to, const std::vector<int32_t>& held,
+                                            std::span<const Vec2> path, const std::vector<int32_t>& held,
                                             const std::vector<Vec3>& held_target, LocalRelaxationScratch& scratch,
                                             Sheet& sheet);
 

@@ -78,11 +78,11 @@ TEST(LocalRelaxation, PatchCoveringTheSheetIsTheFullSubstep) {
   std::vector<Vec3> target;
   const Sheet start = hanging_sheet(p, 20, held, target);
   Sheet full = start, local = start;
+  const std::vector<Vec2> path = {Vec2(0.1, 0), Vec2(0.1, 0.05)};
   ImplicitSolverPtr solver;
   ASSERT_TRUE(implicit_substep(p, held, target, solver, full));
   LocalRelaxationScratch scratch;
-  const LocalRelaxationResult r = relax_patch_after_cut(p, LocalRelaxationParams{10.0}, Vec2(0.1, 0), Vec2(0.1, 0.05),
-                                                        held, target, scratch, local);
+  const LocalRelaxationResult r = relax_patch_after_cut(p, LocalRelaxationParams{10.0}, path, held, target, scratch, local);
   ASSERT_TRUE(r.relaxed);
   EXPECT_EQ(r.triangles, start.tris.size());
   EXPECT_EQ(r.free_vertices, start.verts.size());
@@ -103,9 +103,10 @@ TEST(LocalRelaxation, VerticesOutsideThePatchStayWhereTheyWere) {
   Sheet local = start;
   LocalRelaxationScratch scratch;
   const Vec2 from(0.1, 0.08), to(0.1, 0.12);
+  const std::vector<Vec2> path = {from, to};
   const double radius = 0.03;
   const LocalRelaxationResult r =
-      relax_patch_after_cut(p, LocalRelaxationParams{radius}, from, to, held, target, scratch, local);
+      relax_patch_after_cut(p, LocalRelaxationParams{radius}, path, held, target, scratch, local);
   ASSERT_TRUE(r.relaxed);
   int32_t inside = 0, moved = 0;
   for (int32_t i = 0; i < start.verts.size(); ++i) {
@@ -124,8 +125,8 @@ TEST(LocalRelaxation, VerticesOutsideThePatchStayWhereTheyWere) {
   // The scratch leaves no mark behind: a second call on the result gives the same as a fresh scratch.
   Sheet again = local, fresh = local;
   LocalRelaxationScratch other;
-  ASSERT_TRUE(relax_patch_after_cut(p, LocalRelaxationParams{radius}, from, to, held, target, scratch, again).relaxed);
-  ASSERT_TRUE(relax_patch_after_cut(p, LocalRelaxationParams{radius}, from, to, held, target, other, fresh).relaxed);
+  ASSERT_TRUE(relax_patch_after_cut(p, LocalRelaxationParams{radius}, path, held, target, scratch, again).relaxed);
+  ASSERT_TRUE(relax_patch_after_cut(p, LocalRelaxationParams{radius}, path, held, target, other, fresh).relaxed);
   EXPECT_EQ(again.verts.x, fresh.verts.x);
   EXPECT_EQ(again.verts.v, fresh.verts.v);
 }
@@ -143,6 +144,7 @@ TEST(LocalRelaxation, CutLipsOpenAsInTheFullSubstep) {
   ASSERT_TRUE(c.cut);
   ASSERT_FALSE(c.reached_boundary);
   pulled_edges(cut, 0.002, held, target);  // the cut may renumber vertices: the edges' ids again
+  const std::vector<Vec2> path = {Vec2(0.1, 0), c.end};
   ASSERT_LT(largest_lip_opening(cut), 1e-12) << "the cut alone moves nothing";
 
   // The full substep is nearly quasi-static here (h²K ≫ M: a stress wave crosses the sheet within one
@@ -158,8 +160,7 @@ TEST(LocalRelaxation, CutLipsOpenAsInTheFullSubstep) {
   for (const double radius : {0.01, 0.03, 0.06, 0.1, 0.15}) {
     Sheet local = cut;
     LocalRelaxationScratch scratch;
-    const LocalRelaxationResult r = relax_patch_after_cut(p, LocalRelaxationParams{radius}, cut.verts.rest[p0], c.end,
-                                                          held, target, scratch, local);
+    const LocalRelaxationResult r = relax_patch_after_cut(p, LocalRelaxationParams{radius}, path, held, target, scratch, local);
     ASSERT_TRUE(r.relaxed);
     const double opening = largest_lip_opening(local);
     EXPECT_GT(opening, previous) << "radius " << radius;

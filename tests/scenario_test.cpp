@@ -348,7 +348,9 @@ TEST(Scenario, SimChoicesAreReadAndValidated) {
   for (const Choice& c : {Choice{"solver", "projective", &pt::SimSettings::solver, "implicit",
                                  "sim.solver: unknown solver \"x\" (implicit or projective)"},
                           Choice{"relaxation", "next_frame", &pt::SimSettings::relaxation, "substep",
-                                 "sim.relaxation: unknown relaxation \"x\" (substep or next_frame)"}}) {
+                                 "sim.relaxation: unknown relaxation \"x\" (substep, next_frame or patch)"},
+                          Choice{"relaxation", "patch", &pt::SimSettings::relaxation, "substep",
+                                 "sim.relaxation: unknown relaxation \"x\" (substep, next_frame or patch)"}}) {
     auto text = [&](const std::string& value) {
       return std::string(R"({"sheet": {"preset": "A6"}, "sim": {")") + c.key + R"(": ")" + value +
              R"("}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})";
@@ -357,6 +359,27 @@ TEST(Scenario, SimChoicesAreReadAndValidated) {
     EXPECT_EQ(pt::SimSettings().*c.field, c.default_value) << c.key;
     const std::string message = error_of_text(text("x"), "x.json");
     EXPECT_NE(message.find(c.error), std::string::npos) << message;
+  }
+}
+
+// "patch" relaxes within sim.relaxation_radius with the implicit solver: the radius is read and checked,
+// and the projective solver, which has no patch step, is refused rather than silently relaxed otherwise.
+TEST(Scenario, PatchRelaxationRadiusIsReadAndValidated) {
+  auto text = [](const std::string& sim) {
+    return R"({"sheet": {"preset": "A6"}, "sim": {)" + sim + R"(}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})";
+  };
+  EXPECT_EQ(pt::SimSettings().relaxation_radius, 0.03);
+  EXPECT_EQ(pt::parse_scenario(text(R"("relaxation": "patch", "relaxation_radius": 0.05)"), "x.json").sim.relaxation_radius,
+            0.05);
+  for (const auto& [sim, error] : std::vector<std::pair<std::string, std::string>>{
+           {R"("relaxation_radius": 0)", "sim.relaxation_radius: must be positive"},
+           {R"("relaxation_radius": -1)", "sim.relaxation_radius: must be positive"},
+           {R"("relaxation_radius": 5000)", "sim.relaxation_radius: absurd size"},
+           {R"("relaxation_radius": "big")", "sim.relaxation_radius"},
+           {R"("relaxation": "patch", "solver": "projective")",
+            "sim.relaxation: \"patch\" relaxes with the implicit solver; sim.solver is \"projective\""}}) {
+    const std::string message = error_of_text(text(sim), "x.json");
+    EXPECT_NE(message.find(error), std::string::npos) << sim << " → " << message;
   }
 }
 
