@@ -42,13 +42,7 @@ double total_energy(const Sheet& s, const std::vector<BendingStencil>& stencils)
 
 // Two top corners of a 0.2 x 0.2 m grid.
 void corners(const Sheet& s, std::vector<int32_t>& held, std::vector<Vec3>& target) {
-  held.clear();
-  target.clear();
-  for (int32_t i = 0; i < s.verts.size(); ++i)
-    if (s.verts.rest[i].y() > 0.2 - 1e-12 && (s.verts.rest[i].x() < 1e-12 || s.verts.rest[i].x() > 0.2 - 1e-12)) {
-      held.push_back(i);
-      target.push_back(s.verts.x[i]);
-    }
+  test::held_top_corners(s, 0.2, 0.2, held, target);
 }
 
 }  // namespace

@@ -40,13 +40,7 @@ Sheet held_sheet(const ImplicitParams& p, double stretch, int substeps, std::vec
 // The sheet hanging from its two top corners, `substeps` substeps after it was let go flat: swinging down.
 Sheet hanging_sheet(const ImplicitParams& p, int substeps, std::vector<int32_t>& held, std::vector<Vec3>& target) {
   Sheet s = test::grid_sheet(0.2, 0.2, 12, 12, 0.2, 4);
-  held.clear();
-  target.clear();
-  for (int32_t i = 0; i < s.verts.size(); ++i)
-    if (s.verts.rest[i].y() > 0.2 - 1e-12 && (s.verts.rest[i].x() < 1e-12 || s.verts.rest[i].x() > 0.2 - 1e-12)) {
-      held.push_back(i);
-      target.push_back(s.verts.x[i]);
-    }
+  test::held_top_corners(s, 0.2, 0.2, held, target);
   ImplicitSolverPtr solver;
   for (int step = 0; step < substeps; ++step) EXPECT_TRUE(implicit_substep(p, held, target, solver, s));
   return s;

@@ -42,6 +42,17 @@ inline Sheet grid_sheet(double w, double h, int nx, int ny, double jitter = 0, u
   return s;
 }
 
+// The two top corners of a grid_sheet of size w × h, held where they are.
+inline void held_top_corners(const Sheet& s, double w, double h, std::vector<int32_t>& held, std::vector<Vec3>& target) {
+  held.clear();
+  target.clear();
+  for (int32_t i = 0; i < s.verts.size(); ++i)
+    if (s.verts.rest[i].y() > h - 1e-12 && (s.verts.rest[i].x() < 1e-12 || s.verts.rest[i].x() > w - 1e-12)) {
+      held.push_back(i);
+      target.push_back(s.verts.x[i]);
+    }
+}
+
 // A W x H rectangle as an nx x ny grid, each cell split into two counter-clockwise triangles (diagonals
 // alternate so the mesh has no preferred direction); interior vertices jittered by up to `jitter` cell
 // sizes in each direction.
