@@ -116,6 +116,7 @@ struct Simulation::Impl {
   bool relax_patch = false;               // "sim": {"relaxation": "patch"}
   LocalRelaxationParams local_relaxation;
   LocalRelaxationScratch local_scratch;
+  int64_t patch_failures = 0;  // patch relaxations the implicit step refused (reported with the solver's)
   double driving_force_radius = 0.04;  // m
   DrivingForceScratch driving_scratch;
   std::vector<int32_t> singular_vertices;  // fingers and tips: kept out of a J-integral's domain
@@ -452,8 +453,10 @@ struct Simulation::Impl {
           std::vector<int32_t> held;
           std::vector<Vec3> target;
           held_vertices(1.0, held, target);
-          relax_patch_after_cut(implicit_params, local_relaxation, sheet.tears[tear_id].tips, held, target, local_scratch,
-                                sheet);
+          if (!relax_patch_after_cut(implicit_params, local_relaxation, sheet.tears[tear_id].tips, held, target,
+                                     local_scratch, sheet)
+                   .relaxed)
+            ++patch_failures;
         } else {
           substep(1.0);
         }
@@ -543,7 +546,9 @@ const std::vector<std::string>& Simulation::invariant_violations() const { retur
 int32_t Simulation::remesh_count() const { return impl_->remeshes; }
 size_t Simulation::solver_bytes() const { return impl_->implicit ? implicit_solver_bytes(*impl_->implicit) : 0; }
 ImplicitStats Simulation::solver_stats() const {
-  return impl_->implicit ? implicit_solver_stats(*impl_->implicit) : ImplicitStats{};
+  ImplicitStats stats = impl_->implicit ? implicit_solver_stats(*impl_->implicit) : ImplicitStats{};
+  stats.failures += impl_->patch_failures;  // a refused patch relaxation left its lips where they were
+  return stats;
 }
 const std::vector<Candidate>& Simulation::candidates() const { return impl_->candidates; }
 int32_t Simulation::threads() const { return impl_->options.threads; }

@@ -42,7 +42,7 @@ LocalRelaxationResult relax_patch_after_cut(const ImplicitParams& params, const 
   scratch.stamp += 1;
   const int32_t stamp = scratch.stamp;
 
-  // Free vertices, in ascending id: within the radius of the segment (one pass over the pattern positions,
+  // Free vertices, in ascending id: within the radius of the path (one pass over the pattern positions,
   // a few microseconds at 10 000 triangles), and the cut's new vertices with their one-rings. They are
   // marked with patch_vertex = −2 until numbered.
   std::vector<int32_t>& free_vertices = scratch.free_list;
