@@ -195,7 +195,8 @@ INSTANTIATE_TEST_SUITE_P(Scenarios, EveryScenario,
                                            "fig16-direction.json",
                                            "fig16-zigzag.json", "fig17-branching.json", "fig18-crumple.json",
                                            "fig19-sigma1mm.json", "fig21-notch.json", "start-finger.json",
-                                           "start-inward.json", "start-junction.json", "torn-in-two.json"),
+                                           "start-inward.json", "start-junction.json", "torn-in-two.json",
+                                           "a4-10k-patch.json"),
                          [](const auto& info) {
                            std::string n = info.param.substr(0, info.param.size() - 5);
                            for (char& c : n)
