@@ -505,10 +505,30 @@ struct Simulation::Impl {
     make_edge(carving, tearing);
   }
 
+  // The graph's systems in one of its orders, on the calling thread. A sheet no larger than one range of
+  // the kernels (parallel_grain) runs its frame this way: its kernels run serially anyway, and the graph
+  // only moved its systems between the cores — the cut then found the sheet in the other core's cache
+  // (BM_Frame/100 on two threads, three interleaved rounds: the tearing step 17.3–18.9 → 14.4–15.7 µs,
+  // the frame 0.60–0.61 → 0.57 ms; bench/results/2026-11-23-10-notes.txt §8). Same systems, same order
+  // of their effects on the sheet (carving reads only tips cut in earlier frames), so the same results.
+  void run_frame_in_order() {
+    run_fingers();
+    run_carving();
+    run_physics();
+    run_forces();
+    run_regions();
+    run_candidates();
+    run_tearing();
+  }
+
   void step() {
     profile = FrameProfile{};
     const auto t0 = Clock::now();
     arena.execute([&] {
+      if (sheet.tris.size() <= options.parallel_grain) {
+        run_frame_in_order();
+        return;
+      }
       start->try_put(tbb::flow::continue_msg());
       graph->wait_for_all();
     });
