@@ -28,7 +28,8 @@ Variation parse_variation(const std::string& text) {
                                 "material.fracture_c", "material.speed",    "material.max_step",
                                 "material.damping",   "material.fiber_scale", "detail.sigma",
                                 "detail.omega",       "sim.substeps",       "sim.iterations",
-                                "tearing.radius",     "tearing.snap",       "finger_speed"};
+                                "sim.relaxation_radius", "tearing.radius",  "tearing.snap",
+                                "finger_speed"};
   bool ok = false;
   for (const char* k : known) ok = ok || v.key == k;
   if (!ok) throw InputError("--vary " + text + ": unknown key '" + v.key + "'");
@@ -64,6 +65,7 @@ void apply_variation(const std::string& key, double value, Scenario& s) {
   else if (key == "detail.omega") s.detail.omega = value;
   else if (key == "sim.substeps") s.sim.substeps = std::max(1, static_cast<int32_t>(std::lround(value)));
   else if (key == "sim.iterations") s.sim.iterations = std::max(1, static_cast<int32_t>(std::lround(value)));
+  else if (key == "sim.relaxation_radius") s.sim.relaxation_radius = value;
   else if (key == "tearing.radius") s.tearing.radius = value;
   else if (key == "tearing.snap") s.tearing.snap = value;
   else if (key == "finger_speed") {

@@ -307,6 +307,20 @@ TEST_F(Cli, BatchWritesBatchJson) {
   EXPECT_EQ(j["hashes"].size(), 3u);
 }
 
+// A sweep is recorded per sheet: --vary spreads the key linearly from FROM (first sheet) to TO (last), and a
+// sweep that leaves the key's valid range is an input error (here the patch relaxation's radius).
+TEST_F(Cli, BatchVariesTheRelaxationRadius) {
+  const Result r = run({"batch", good().string(), "--sheets", "3", "--frames", "2", "--vary",
+                        "sim.relaxation_radius=0.02:0.06", "--out", "v"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(read_file(dir_ / "v" / "batch.json"));
+  ASSERT_EQ(j["outcomes"].size(), 3u);
+  const double expected[3] = {0.02, 0.04, 0.06};
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(j["outcomes"][i]["varied"][0].get<double>(), expected[i], 1e-12) << i;
+  expect_input_error(run({"batch", good().string(), "--sheets", "2", "--vary", "sim.relaxation_radius=0:0.05"}),
+                     "--vary sim.relaxation_radius from 0");
+}
+
 // Issue 6: results identical at any --threads, not only the hashes: every per-sheet outcome (CSV, timing
 // column aside) and the memory per sheet. A tearing scenario, so cuts (and the per-thread buffers of the
 // local topology refresh) run on whichever worker takes a sheet.
