@@ -59,7 +59,8 @@ double largest_lip_opening(const Sheet& s) {
   double widest = 0;
   for (int32_t a = 0; a < s.verts.size(); ++a)
     for (int32_t b = a + 1; b < s.verts.size(); ++b)
-      if ((s.verts.rest[a] - s.verts.rest[b]).norm() < 1e-12) widest = std::max(widest, (s.verts.x[a] - s.verts.x[b]).norm());
+      if ((s.verts.rest[a] - s.verts.rest[b]).norm() < 1e-12)
+        widest = std::max(widest, (s.verts.x[a] - s.verts.x[b]).norm());
   return widest;
 }
 
@@ -76,7 +77,8 @@ TEST(LocalRelaxation, PatchCoveringTheSheetIsTheFullSubstep) {
   ImplicitSolverPtr solver;
   ASSERT_TRUE(implicit_substep(p, held, target, solver, full));
   LocalRelaxationScratch scratch;
-  const LocalRelaxationResult r = relax_patch_after_cut(p, LocalRelaxationParams{10.0}, path, held, target, scratch, local);
+  const LocalRelaxationResult r =
+      relax_patch_after_cut(p, LocalRelaxationParams{10.0}, path, held, target, scratch, local);
   ASSERT_TRUE(r.relaxed);
   EXPECT_EQ(r.triangles, start.tris.size());
   EXPECT_EQ(r.free_vertices, start.verts.size());
@@ -125,7 +127,7 @@ TEST(LocalRelaxation, VerticesOutsideThePatchStayWhereTheyWere) {
   EXPECT_EQ(again.verts.v, fresh.verts.v);
 }
 
-TEST(LocalRelaxation, CutLipsOpenAsInTheFullSubstep) {
+TEST(LocalRelaxation, CutLipsOpenMoreAsThePatchGrowsUpToTheFullSubstep) {
   ImplicitParams p;
   p.gravity = Vec3::Zero();
   std::vector<int32_t> held;
@@ -154,7 +156,8 @@ TEST(LocalRelaxation, CutLipsOpenAsInTheFullSubstep) {
   for (const double radius : {0.01, 0.03, 0.06, 0.1, 0.15}) {
     Sheet local = cut;
     LocalRelaxationScratch scratch;
-    const LocalRelaxationResult r = relax_patch_after_cut(p, LocalRelaxationParams{radius}, path, held, target, scratch, local);
+    const LocalRelaxationResult r =
+        relax_patch_after_cut(p, LocalRelaxationParams{radius}, path, held, target, scratch, local);
     ASSERT_TRUE(r.relaxed);
     const double opening = largest_lip_opening(local);
     EXPECT_GT(opening, previous) << "radius " << radius;

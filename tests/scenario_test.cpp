@@ -369,8 +369,8 @@ TEST(Scenario, PatchRelaxationRadiusIsReadAndValidated) {
     return R"({"sheet": {"preset": "A6"}, "sim": {)" + sim + R"(}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})";
   };
   EXPECT_EQ(pt::SimSettings().relaxation_radius, 0.03);
-  EXPECT_EQ(pt::parse_scenario(text(R"("relaxation": "patch", "relaxation_radius": 0.05)"), "x.json").sim.relaxation_radius,
-            0.05);
+  const pt::Scenario s = pt::parse_scenario(text(R"("relaxation": "patch", "relaxation_radius": 0.05)"), "x.json");
+  EXPECT_EQ(s.sim.relaxation_radius, 0.05);
   for (const auto& [sim, error] : std::vector<std::pair<std::string, std::string>>{
            {R"("relaxation_radius": 0)", "sim.relaxation_radius: must be positive"},
            {R"("relaxation_radius": -1)", "sim.relaxation_radius: must be positive"},

@@ -43,7 +43,8 @@ inline Sheet grid_sheet(double w, double h, int nx, int ny, double jitter = 0, u
 }
 
 // The two top corners of a grid_sheet of size w × h, held where they are.
-inline void held_top_corners(const Sheet& s, double w, double h, std::vector<int32_t>& held, std::vector<Vec3>& target) {
+inline void held_top_corners(const Sheet& s, double w, double h, std::vector<int32_t>& held,
+                             std::vector<Vec3>& target) {
   held.clear();
   target.clear();
   for (int32_t i = 0; i < s.verts.size(); ++i)
