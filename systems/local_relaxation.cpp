@@ -152,10 +152,11 @@ LocalRelaxationResult relax_patch_after_cut(const ImplicitParams& params, const 
     }
   }
 
-  // A fresh solver: the spin brake's level would otherwise carry from one patch to another.
-  scratch.solver.reset();
+  // A fresh solver for each patch (its pattern is new anyway), dropped after the step: the spin brake's level
+  // would otherwise carry from one patch to another, and the sheet keeps no factor it will not reuse.
+  ImplicitSolverPtr solver;
   result.triangles = pt;
-  result.relaxed = implicit_substep(params, patch_held, patch_target, scratch.solver, patch);
+  result.relaxed = implicit_substep(params, patch_held, patch_target, solver, patch);
   if (result.relaxed) {
     for (int32_t i = 0; i < pv; ++i) {
       if (!scratch.free[i]) continue;

@@ -53,7 +53,6 @@ struct LocalRelaxationScratch {
   std::vector<int32_t> held;            // the copy's held vertices (rim ascending, then free fingers)
   std::vector<Vec3> held_target;
   std::vector<int32_t> piece;  // build_topology's piece labels of the copy (not read)
-  ImplicitSolverPtr solver;
 };
 
 struct LocalRelaxationResult {
