@@ -184,7 +184,7 @@ struct Simulation::Impl {
     take_propagation_params(m);
     material_force_direction = scenario.tearing.direction == "material_force";
     relax_next_frame = scenario.sim.relaxation == "next_frame";
-    relax_patch = scenario.sim.relaxation == "patch" && !use_projective;
+    relax_patch = scenario.sim.relaxation == "patch";  // validated: only with the implicit solver
     local_relaxation.radius = scenario.sim.relaxation_radius;
     driving_force_radius = scenario.tearing.radius;
     remesh_params.snap_fraction = scenario.tearing.snap_fraction();
