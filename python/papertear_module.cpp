@@ -106,6 +106,13 @@ PYBIND11_MODULE(papertear, m) {
       .def_property(
           "fps", [](const pt::Scenario& s) { return s.sim.fps; }, [](pt::Scenario& s, double v) { s.sim.fps = v; })
       .def_property(
+          "relaxation", [](const pt::Scenario& s) { return s.sim.relaxation; },
+          [](pt::Scenario& s, const std::string& v) { s.sim.relaxation = v; },
+          "sim.relaxation: \"substep\", \"next_frame\" or \"patch\" (checked by validate())")
+      .def_property(
+          "relaxation_radius", [](const pt::Scenario& s) { return s.sim.relaxation_radius; },
+          [](pt::Scenario& s, double v) { s.sim.relaxation_radius = v; }, "sim.relaxation_radius, m")
+      .def_property(
           "fiber_seed", [](const pt::Scenario& s) { return s.material.fiber_seed; },
           [](pt::Scenario& s, uint64_t v) { s.material.fiber_seed = v; })
       .def_property_readonly("outline", [](const pt::Scenario& s) { return points(s.outline); })

@@ -64,6 +64,19 @@ class Bindings(unittest.TestCase):
         with self.assertRaises(ValueError):
             papertear.Simulation(SCENARIO, threads=0)
 
+    def test_relaxation_choice(self):
+        sc = papertear.load_scenario(SCENARIO)
+        self.assertEqual((sc.relaxation, sc.relaxation_radius), ("substep", 0.03))
+        sc.relaxation = "patch"
+        sc.relaxation_radius = 0.05
+        sc.validate()
+        sim = papertear.Simulation(sc, threads=1)
+        sim.step(5)
+        self.assertEqual(sim.frame, 5)
+        sc.relaxation = "everywhere"
+        with self.assertRaises(papertear.InputError):
+            sc.validate()
+
     def test_view_follows_stepping(self):
         sim = papertear.Simulation(SCENARIO, threads=2)
         x = sim.positions
