@@ -1,7 +1,8 @@
 // papertear: the command line (DESIGN §7).
-//   papertear run SCENARIO [--out DIR] [--frames N] [--threads N] [--obj] [--svg] [--png]
-//   papertear check SCENARIO
-//   papertear batch SCENARIO --sheets N [--threads N] [--frames N] [--out DIR] [--vary KEY=FROM:TO]...
+//   papertear run SCENARIO [--set KEY=VALUE]... [--out DIR] [--frames N] [--threads N] [--obj] [--svg] [--png]
+//   papertear check SCENARIO [--set KEY=VALUE]...
+//   papertear batch SCENARIO --sheets N [--set KEY=VALUE]... [--threads N] [--frames N] [--out DIR]
+//                   [--vary KEY=FROM:TO]...
 // Exit status: 0 success; 2 invalid input (one line on stderr naming the file and the JSON path or the
 // geometric problem; nothing written); 1 internal failure (one line on stderr; never a crash).
 #include "engine/batch.hpp"
@@ -48,6 +49,7 @@ void print_error(const std::string& message) {
 
 struct RunOptions {
   std::string scenario;
+  std::vector<std::string> settings;  // --set KEY=VALUE
   std::string out;
   int32_t frames = -1;  // −1: the scenario's
   int32_t threads = 2;
@@ -56,6 +58,7 @@ struct RunOptions {
 
 struct BatchCli {
   std::string scenario;
+  std::vector<std::string> settings;
   std::string out;
   int32_t sheets = 0;
   int32_t threads = 2;
@@ -158,7 +161,7 @@ std::string plural(int64_t n, const char* word) {
 }
 
 int run_command(const RunOptions& opt) {
-  pt::Scenario scenario = pt::load_scenario(opt.scenario);
+  pt::Scenario scenario = pt::load_scenario(opt.scenario, opt.settings);
   if (opt.frames >= 0) scenario.sim.frames = opt.frames;
   OutputDir out(opt.out.empty() ? fs::path("out") / scenario.name : fs::path(opt.out));
 
@@ -232,8 +235,8 @@ int run_command(const RunOptions& opt) {
   return kExitOk;
 }
 
-int check_command(const std::string& path) {
-  const pt::Scenario s = pt::load_scenario(path);
+int check_command(const std::string& path, const std::vector<std::string>& settings) {
+  const pt::Scenario s = pt::load_scenario(path, settings);
   std::printf("%s: ok: \"%s\", %s, %s, %d triangles, %d frames at %g fps\n", path.c_str(), s.name.c_str(),
               plural(static_cast<int64_t>(s.fingers.size()), "finger").c_str(),
               plural(static_cast<int64_t>(s.hands.size()), "hand").c_str(), s.triangles, s.sim.frames, s.sim.fps);
@@ -241,7 +244,7 @@ int check_command(const std::string& path) {
 }
 
 int batch_command(const BatchCli& cli) {
-  const pt::Scenario base = pt::load_scenario(cli.scenario);
+  const pt::Scenario base = pt::load_scenario(cli.scenario, cli.settings);
   pt::BatchOptions options;
   options.sheets = cli.sheets;
   options.threads = cli.threads;
@@ -297,6 +300,8 @@ int main(int argc, char** argv) {
   RunOptions run;
   CLI::App* run_cmd = app.add_subcommand("run", "simulate a scenario and write DIR/result.json");
   run_cmd->add_option("SCENARIO", run.scenario, "scenario file (JSON)")->required();
+  const char* set_help = "KEY=VALUE written into the scenario's JSON before it is read, e.g. sim.relaxation=patch (repeatable)";
+  run_cmd->add_option("--set", run.settings, set_help);
   run_cmd->add_option("--out", run.out, "output directory (default: out/<name>)");
   run_cmd->add_option("--frames", run.frames, "frames to simulate (default: the scenario's)")
       ->check(CLI::Range(1, 10'000'000));
@@ -306,13 +311,16 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--png", run.png, "write DIR/pattern.png (the pattern with detailed tears at texture resolution)");
 
   std::string check_path;
+  std::vector<std::string> check_settings;
   CLI::App* check_cmd = app.add_subcommand("check", "validate a scenario only");
   check_cmd->add_option("SCENARIO", check_path, "scenario file (JSON)")->required();
+  check_cmd->add_option("--set", check_settings, set_help);
 
   BatchCli batch;
   CLI::App* batch_cmd = app.add_subcommand("batch", "simulate N variations of a scenario in parallel");
   batch_cmd->add_option("SCENARIO", batch.scenario, "scenario file (JSON)")->required();
   batch_cmd->add_option("--sheets", batch.sheets, "number of sheets")->required()->check(CLI::Range(1, 1'000'000));
+  batch_cmd->add_option("--set", batch.settings, set_help);
   batch_cmd->add_option("--threads", batch.threads, "worker threads (default: 2)")->check(CLI::Range(1, 1024));
   batch_cmd->add_option("--frames", batch.frames, "frames per sheet (default: the scenario's)")
       ->check(CLI::Range(1, 10'000'000));
@@ -330,7 +338,7 @@ int main(int argc, char** argv) {
 
   try {
     if (*run_cmd) return run_command(run);
-    if (*check_cmd) return check_command(check_path);
+    if (*check_cmd) return check_command(check_path, check_settings);
     if (*batch_cmd) return batch_command(batch);
     print_error("no command (run, check or batch)");
     return kExitInput;

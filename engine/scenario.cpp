@@ -644,7 +644,9 @@ Scenario parse_scenario(const std::string& json_text, const std::string& path_fo
   return s;
 }
 
-Scenario load_scenario(const std::string& path) {
+namespace {
+
+std::string read_scenario_text(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) fail(path, "", "is a directory, not a scenario file");
   std::FILE* f = std::fopen(path.c_str(), "rb");
@@ -668,7 +670,52 @@ Scenario load_scenario(const std::string& path) {
   std::fclose(f);
   if (read_error) fail(path, "", std::string("cannot read: ") + std::strerror(err));
   if (too_big) fail(path, "", "absurd size: file larger than " + std::to_string(kMaxFileBytes >> 20) + " MiB");
-  return parse_scenario(text, path);
+  return text;
+}
+
+// "a.b.c=VALUE" of --set written into the document: VALUE as JSON when it is JSON (0.05, true, [1, 2],
+// "text"), else as a string (patch); objects on the way are created where missing.
+void apply_setting(const std::string& path, const std::string& setting, json& root) {
+  const std::string where = "--set " + setting;
+  const size_t eq = setting.find('=');
+  if (eq == std::string::npos || eq == 0) fail(path, "", where + ": expected KEY=VALUE");
+  const std::string key = setting.substr(0, eq), text = setting.substr(eq + 1);
+  std::vector<std::string> parts;
+  for (size_t begin = 0;;) {
+    const size_t dot = key.find('.', begin);
+    parts.push_back(key.substr(begin, dot == std::string::npos ? std::string::npos : dot - begin));
+    if (parts.back().empty()) fail(path, "", where + ": empty name in the key");
+    if (dot == std::string::npos) break;
+    begin = dot + 1;
+  }
+  json* node = &root;
+  std::string walked;
+  for (size_t i = 0; i + 1 < parts.size(); ++i) {
+    walked += (i ? "." : "") + parts[i];
+    json& next = (*node)[parts[i]];
+    if (next.is_null()) next = json::object();
+    if (!next.is_object()) fail(path, walked, where + ": not an object (" + type_name(next) + ")");
+    node = &next;
+  }
+  (*node)[parts.back()] = json::accept(text) ? json::parse(text) : json(text);
+}
+
+}  // namespace
+
+Scenario load_scenario(const std::string& path) { return parse_scenario(read_scenario_text(path), path); }
+
+Scenario load_scenario(const std::string& path, const std::vector<std::string>& settings) {
+  if (settings.empty()) return load_scenario(path);
+  json root = parse_json_strict(read_scenario_text(path), path);
+  if (!root.is_object()) fail(path, "", std::string("expected a JSON object at the top level, got ") + type_name(root));
+  for (const std::string& setting : settings) apply_setting(path, setting, root);
+  try {
+    return parse_scenario(root.dump(), path);
+  } catch (const InputError& e) {
+    std::string all;
+    for (const std::string& setting : settings) all += (all.empty() ? "" : ", ") + setting;
+    throw InputError(std::string(e.what()) + " (with --set " + all + ")");
+  }
 }
 
 }  // namespace pt

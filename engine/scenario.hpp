@@ -84,6 +84,9 @@ struct Scenario {
 
 // Parse and validate. Throws InputError.
 Scenario load_scenario(const std::string& path);
+// The file with `settings` ("sim.relaxation=patch", "material.fracture_c=3e4", as `papertear --set`) written
+// into its JSON before it is read: the same checks, and an error says it came with the settings.
+Scenario load_scenario(const std::string& path, const std::vector<std::string>& settings);
 Scenario parse_scenario(const std::string& json_text, const std::string& path_for_messages);
 
 // Checks that do not depend on JSON (outline simple and CCW, fingers inside, constants positive and

@@ -126,7 +126,12 @@ PYBIND11_MODULE(papertear, m) {
       .def("validate", &pt::validate_scenario, "Raises InputError when a value set in code is invalid.")
       .def("__repr__", [](const pt::Scenario& s) { return "<papertear.Scenario '" + s.name + "'>"; });
 
-  m.def("load_scenario", &pt::load_scenario, "path"_a, "Load and validate a scenario file; raises InputError.");
+  m.def(
+      "load_scenario",
+      [](const std::string& path, const std::vector<std::string>& settings) { return pt::load_scenario(path, settings); },
+      "path"_a, "settings"_a = std::vector<std::string>{},
+      "Load and validate a scenario file, with settings [\"sim.relaxation=patch\", ...] written into its JSON first (as "
+      "papertear --set); raises InputError.");
   m.def("parse_scenario", &pt::parse_scenario, "json_text"_a, "path_for_messages"_a = "<string>",
         "Parse and validate scenario JSON text; raises InputError.");
 

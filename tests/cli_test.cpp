@@ -321,6 +321,23 @@ TEST_F(Cli, BatchVariesTheRelaxationRadius) {
                      "--vary sim.relaxation_radius from 0");
 }
 
+// --set on run, check and batch: the setting is read as if it were in the file; a bad one is exit 2, one line.
+TEST_F(Cli, SetWritesIntoTheScenario) {
+  const fs::path g = good();
+  const Result checked = run({"check", g.string(), "--set", "sim.frames=7", "--set", "sim.relaxation=patch"});
+  ASSERT_EQ(checked.status, 0) << checked.err;
+  EXPECT_NE(checked.out.find("7 frames"), std::string::npos) << checked.out;
+  const Result ran = run({"run", g.string(), "--set", "sim.frames=3", "--out", "s"});
+  ASSERT_EQ(ran.status, 0) << ran.err;
+  EXPECT_EQ(nlohmann::json::parse(read_file(dir_ / "s" / "result.json"))["frames"], 3);
+  const Result batch = run({"batch", g.string(), "--sheets", "2", "--set", "sim.frames=2", "--out", "sb"});
+  ASSERT_EQ(batch.status, 0) << batch.err;
+  EXPECT_EQ(nlohmann::json::parse(read_file(dir_ / "sb" / "batch.json"))["frames"], 2);
+  expect_input_error(run({"run", g.string(), "--set", "sim.relaxation=nope", "--out", "bad"}), "--set bad value");
+  expect_input_error(run({"check", g.string(), "--set", "novalue"}), "--set without =");
+  EXPECT_FALSE(fs::exists(dir_ / "bad"));
+}
+
 // Issue 6: results identical at any --threads, not only the hashes: every per-sheet outcome (CSV, timing
 // column aside) and the memory per sheet. A tearing scenario, so cuts (and the per-thread buffers of the
 // local topology refresh) run on whichever worker takes a sheet.

@@ -383,6 +383,42 @@ TEST(Scenario, PatchRelaxationRadiusIsReadAndValidated) {
   }
 }
 
+// papertear --set: settings written into the file's JSON before it is read, so they pass the same checks; a
+// value that is not JSON is a string; objects on the way are created; an error names the setting.
+TEST(Scenario, SettingsAreWrittenIntoTheJsonBeforeReading) {
+  const std::string file = std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json";
+  const pt::Scenario plain = pt::load_scenario(file);
+  const pt::Scenario s = pt::load_scenario(
+      file, {"sim.relaxation=patch", "sim.relaxation_radius=0.05", "tearing.direction=\"material_force\"",
+             "sheet.triangles=150", "material.fracture_c=3e4"});
+  EXPECT_EQ(s.sim.relaxation, "patch");
+  EXPECT_EQ(s.sim.relaxation_radius, 0.05);
+  EXPECT_EQ(s.tearing.direction, "material_force");  // the file has no "tearing" object: created
+  EXPECT_EQ(s.triangles, 150);
+  EXPECT_EQ(s.material.fracture_c, 3e4);
+  EXPECT_EQ(s.name, plain.name);
+  EXPECT_EQ(s.path, file);
+  EXPECT_EQ(s.fingers.size(), plain.fingers.size());
+  for (const auto& [setting, error] : std::vector<std::pair<std::string, std::string>>{
+           {"sim.relaxation=nope", "sim.relaxation: unknown relaxation \"nope\" (substep, next_frame or patch) (with --set "
+                                   "sim.relaxation=nope)"},
+           {"sim.frames.x=1", "sim.frames: --set sim.frames.x=1: not an object"},
+           {"material.bogus=1", "material.bogus: unknown key"},
+           {"sim.relaxation_radius=-1", "sim.relaxation_radius: must be positive"},
+           {"=1", "--set =1: expected KEY=VALUE"},
+           {"sim", "--set sim: expected KEY=VALUE"},
+           {"sim..x=1", "--set sim..x=1: empty name in the key"}}) {
+    try {
+      pt::load_scenario(file, {setting});
+      ADD_FAILURE() << setting << " accepted";
+    } catch (const pt::InputError& e) {
+      const std::string message = e.what();
+      EXPECT_EQ(message.rfind(file + ": ", 0), 0u) << message;
+      EXPECT_NE(message.find(error), std::string::npos) << setting << " → " << message;
+    }
+  }
+}
+
 TEST(Scenario, TearingIsRead) {
   const pt::Scenario d = pt::parse_scenario(
       R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})", "x.json");

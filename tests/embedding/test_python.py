@@ -76,6 +76,11 @@ class Bindings(unittest.TestCase):
         sc.relaxation = "everywhere"
         with self.assertRaises(papertear.InputError):
             sc.validate()
+        # The settings of `papertear --set`, written into the file's JSON before it is read.
+        sc = papertear.load_scenario(SCENARIO, ["sim.relaxation=patch", "sim.relaxation_radius=0.04"])
+        self.assertEqual((sc.relaxation, sc.relaxation_radius), ("patch", 0.04))
+        with self.assertRaises(papertear.InputError):
+            papertear.load_scenario(SCENARIO, ["sim.relaxation_radius=-1"])
 
     def test_view_follows_stepping(self):
         sim = papertear.Simulation(SCENARIO, threads=2)
