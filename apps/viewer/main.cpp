@@ -1,4 +1,5 @@
-// papertear-viewer [SCENARIO] [--frames N --screenshot FILE.png] [--threads N] [--realtime]   (DESIGN §7, issue 7)
+// papertear-viewer [SCENARIO] [--set KEY=VALUE]... [--frames N --screenshot FILE.png] [--threads N] [--realtime]
+//   (DESIGN §7, issue 7)
 //
 // Mouse: left click on the sheet puts a finger there (a vertex is inserted at the picked pattern point)
 // and dragging moves it in the view plane (Shift: in depth); left drag on a finger grabs it (and every
@@ -76,6 +77,7 @@ const char* kDefaultScenario = R"({
 
 struct Options {
   std::string scenario;
+  std::vector<std::string> settings;  // --set KEY=VALUE, written into the scenario's JSON (papertear --set)
   int frames = -1;
   std::string screenshot;
   // Simulation threads. One: the simulation steps on one core while the frame is drawn on the other
@@ -93,8 +95,8 @@ struct Options {
 
 void usage() {
   std::fprintf(stderr,
-               "usage: papertear-viewer [SCENARIO] [--frames N] [--screenshot FILE.png] [--threads N] "
-               "[--size WxH] [--msaa N] [--realtime]\n");
+               "usage: papertear-viewer [SCENARIO] [--set KEY=VALUE]... [--frames N] [--screenshot FILE.png] "
+               "[--threads N] [--size WxH] [--msaa N] [--realtime]\n");
 }
 
 bool parse_args(int argc, char** argv, Options& o) {
@@ -127,6 +129,10 @@ bool parse_args(int argc, char** argv, Options& o) {
     } else if (a == "--threads") {
       const char* v = value("--threads");
       if (!v || !number(v, 1, 256, o.threads)) return false;
+    } else if (a == "--set") {
+      const char* v = value("--set");
+      if (!v) return false;
+      o.settings.push_back(v);
     } else if (a == "--realtime") {
       o.realtime = true;
     } else if (a == "--demo-drag") {
@@ -162,10 +168,11 @@ bool parse_args(int argc, char** argv, Options& o) {
   return true;
 }
 
-Scenario load_initial(const std::string& path) {
-  if (!path.empty()) return load_scenario(path);
+Scenario load_initial(const std::string& path, const std::vector<std::string>& settings) {
+  if (!path.empty()) return load_scenario(path, settings);
   for (const fs::path& p : {fs::path("scenarios/demo.json"), fs::path(PT_SOURCE_DIR) / "scenarios/demo.json"})
-    if (fs::exists(p)) return load_scenario(p.string());
+    if (fs::exists(p)) return load_scenario(p.string(), settings);
+  if (!settings.empty()) throw InputError("--set " + settings.front() + ": needs a scenario file (none found)");
   // Scenario files need a finger; the built-in sheet starts with none (the user puts them on).
   Scenario s = parse_scenario(kDefaultScenario, "<built-in default>");
   s.fingers.clear();
@@ -1038,7 +1045,7 @@ int main(int argc, char** argv) {
   auto app = std::make_unique<App>();
   app->opt = opt;
   try {
-    app->scenario = load_initial(opt.scenario);
+    app->scenario = load_initial(opt.scenario, opt.settings);
   } catch (const InputError& e) {
     std::fprintf(stderr, "papertear-viewer: %s\n", e.what());
     return kExitInput;

@@ -62,7 +62,9 @@ json session_json(const Simulation& sim, const std::string& name) {
               {"frames", std::max(1, sim.frame())},
               {"gravity", vec(sc.sim.gravity)},
               {"iterations", sc.sim.iterations},
-              {"solver", sc.sim.solver}};
+              {"solver", sc.sim.solver},
+              {"relaxation", sc.sim.relaxation},
+              {"relaxation_radius", sc.sim.relaxation_radius}};
   j["tearing"] = {{"direction", sc.tearing.direction}, {"radius", sc.tearing.radius}};
   if (sc.tearing.snap) j["tearing"]["snap"] = *sc.tearing.snap;
 

@@ -102,14 +102,18 @@ TEST(ViewerReplay, RecordedSessionReplaysToTheSameTears) {
               live.state_hash().c_str());
 }
 
-// The recorder keeps the scenario's own fingers and hands, and its output loads strictly.
+// The recorder keeps the scenario's own fingers and hands and its settings (here a session started with
+// --set sim.relaxation=patch), and its output loads strictly.
 TEST(ViewerReplay, ScenarioFingersRoundTrip) {
-  const Scenario base = load_scenario(std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json");
+  const Scenario base = load_scenario(std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json",
+                                      {"sim.relaxation=patch", "sim.relaxation_radius=0.04"});
   Simulation live(base);
   for (int f = 0; f < 20; ++f) live.step();
   const std::string path = out_dir() + "/scripted.json";
   viewer::write_session(live, path);
   const Scenario back = load_scenario(path);
+  EXPECT_EQ(back.sim.relaxation, "patch");
+  EXPECT_EQ(back.sim.relaxation_radius, 0.04);
   ASSERT_EQ(back.fingers.size(), base.fingers.size());
   for (size_t i = 0; i < base.fingers.size(); ++i) {
     EXPECT_EQ(back.fingers[i].name, base.fingers[i].name);
