@@ -673,10 +673,15 @@ std::string read_scenario_text(const std::string& path) {
   return text;
 }
 
+// A setting as echoed in an error's one line: a long one by its beginning.
+std::string shown(const std::string& setting) {
+  return setting.size() <= 80 ? setting : setting.substr(0, 60) + "... (" + std::to_string(setting.size()) + " bytes)";
+}
+
 // "a.b.c=VALUE" of --set written into the document: VALUE as JSON when it is JSON (0.05, true, [1, 2],
 // "text"), else as a string (patch); objects on the way are created where missing.
 void apply_setting(const std::string& path, const std::string& setting, json& root) {
-  const std::string where = "--set " + setting;
+  const std::string where = "--set " + shown(setting);
   const size_t eq = setting.find('=');
   if (eq == std::string::npos || eq == 0) fail(path, "", where + ": expected KEY=VALUE");
   const std::string key = setting.substr(0, eq), text = setting.substr(eq + 1);
@@ -685,6 +690,8 @@ void apply_setting(const std::string& path, const std::string& setting, json& ro
     const size_t dot = key.find('.', begin);
     parts.push_back(key.substr(begin, dot == std::string::npos ? std::string::npos : dot - begin));
     if (parts.back().empty()) fail(path, "", where + ": empty name in the key");
+    if (parts.size() > static_cast<size_t>(kMaxDepth))
+      fail(path, "", where + ": key deeper than " + std::to_string(kMaxDepth) + " levels");
     if (dot == std::string::npos) break;
     begin = dot + 1;
   }
@@ -697,7 +704,14 @@ void apply_setting(const std::string& path, const std::string& setting, json& ro
     if (!next.is_object()) fail(path, walked, where + ": not an object (" + type_name(next) + ")");
     node = &next;
   }
-  (*node)[parts.back()] = json::accept(text) ? json::parse(text) : json(text);
+  // The strict parser, so a value nests no deeper than a file may (dump and the checks recurse).
+  json value;
+  try {
+    value = json::accept(text) ? parse_json_strict(text, path) : json(text);
+  } catch (const InputError& e) {
+    throw InputError(std::string(e.what()) + " (in " + where + ")");
+  }
+  (*node)[parts.back()] = std::move(value);
 }
 
 }  // namespace
@@ -713,7 +727,7 @@ Scenario load_scenario(const std::string& path, const std::vector<std::string>& 
     return parse_scenario(root.dump(), path);
   } catch (const InputError& e) {
     std::string all;
-    for (const std::string& setting : settings) all += (all.empty() ? "" : ", ") + setting;
+    for (const std::string& setting : settings) all += (all.empty() ? "" : ", ") + shown(setting);
     throw InputError(std::string(e.what()) + " (with --set " + all + ")");
   }
 }

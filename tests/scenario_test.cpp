@@ -399,6 +399,9 @@ TEST(Scenario, SettingsAreWrittenIntoTheJsonBeforeReading) {
   EXPECT_EQ(s.name, plain.name);
   EXPECT_EQ(s.path, file);
   EXPECT_EQ(s.fingers.size(), plain.fingers.size());
+  std::string deep_key = "a", deep_value;  // 100 000 levels: refused before anything recurses that deep
+  for (int i = 0; i < 100000; ++i) deep_key += ".a";
+  deep_value = std::string(100000, '[') + std::string(100000, ']');
   for (const auto& [setting, error] : std::vector<std::pair<std::string, std::string>>{
            {"sim.relaxation=nope", "sim.relaxation: unknown relaxation \"nope\" (substep, next_frame or patch) (with --set "
                                    "sim.relaxation=nope)"},
@@ -407,14 +410,17 @@ TEST(Scenario, SettingsAreWrittenIntoTheJsonBeforeReading) {
            {"sim.relaxation_radius=-1", "sim.relaxation_radius: must be positive"},
            {"=1", "--set =1: expected KEY=VALUE"},
            {"sim", "--set sim: expected KEY=VALUE"},
-           {"sim..x=1", "--set sim..x=1: empty name in the key"}}) {
+           {"sim..x=1", "--set sim..x=1: empty name in the key"},
+           {deep_key + "=1", "key deeper than 32 levels"},
+           {"sim.gravity=" + deep_value, "nesting deeper than 32 levels"}}) {
     try {
       pt::load_scenario(file, {setting});
       ADD_FAILURE() << setting << " accepted";
     } catch (const pt::InputError& e) {
       const std::string message = e.what();
       EXPECT_EQ(message.rfind(file + ": ", 0), 0u) << message;
-      EXPECT_NE(message.find(error), std::string::npos) << setting << " → " << message;
+      EXPECT_NE(message.find(error), std::string::npos) << setting.substr(0, 100) << " → " << message.substr(0, 300);
+      EXPECT_LT(message.size(), 400u) << "one readable line";
     }
   }
 }
