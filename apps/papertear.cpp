@@ -300,7 +300,8 @@ int main(int argc, char** argv) {
   RunOptions run;
   CLI::App* run_cmd = app.add_subcommand("run", "simulate a scenario and write DIR/result.json");
   run_cmd->add_option("SCENARIO", run.scenario, "scenario file (JSON)")->required();
-  const char* set_help = "KEY=VALUE written into the scenario's JSON before it is read, e.g. sim.relaxation=patch (repeatable)";
+  const char* set_help =
+      "KEY=VALUE written into the scenario's JSON before it is read, e.g. sim.relaxation=patch (repeatable)";
   run_cmd->add_option("--set", run.settings, set_help);
   run_cmd->add_option("--out", run.out, "output directory (default: out/<name>)");
   run_cmd->add_option("--frames", run.frames, "frames to simulate (default: the scenario's)")
