@@ -105,34 +105,23 @@ void frame_few_substeps(benchmark::State& state, const std::string& relaxation_m
   add_solver_ms_counters(solver, n, state);
   state.counters["cuts"] = static_cast<double>(sim.remesh_count()) / n;  // per frame
 }
+// 60 frames of the big sheet, timed by the wall clock, in ms; the arguments are (triangles, substeps, threads).
+void big_sheet_frames(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"triangles", "substeps", "threads"})->Unit(benchmark::kMillisecond)->Iterations(60)->UseRealTime();
+}
 void BM_FrameFewSubsteps(benchmark::State& state) { frame_few_substeps(state, "substep"); }
-BENCHMARK(BM_FrameFewSubsteps)
-    ->ArgsProduct({{10000}, {1, 2}, {2}})
-    ->ArgNames({"triangles", "substeps", "threads"})
-    ->Unit(benchmark::kMillisecond)
-    ->Iterations(60)
-    ->UseRealTime();
+BENCHMARK(BM_FrameFewSubsteps)->ArgsProduct({{10000}, {1, 2}, {2}})->Apply(big_sheet_frames);
 
 // The same with "relaxation": "next_frame": a propagation is relaxed by the next frame's substep instead
 // of one more substep (a whole factorisation at this size), and at most one propagates per frame.
 void BM_FrameNextFrameRelaxation(benchmark::State& state) { frame_few_substeps(state, "next_frame"); }
-BENCHMARK(BM_FrameNextFrameRelaxation)
-    ->ArgsProduct({{10000}, {1}, {2}})
-    ->ArgNames({"triangles", "substeps", "threads"})
-    ->Unit(benchmark::kMillisecond)
-    ->Iterations(60)
-    ->UseRealTime();
+BENCHMARK(BM_FrameNextFrameRelaxation)->ArgsProduct({{10000}, {1}, {2}})->Apply(big_sheet_frames);
 
 // The same with "relaxation": "patch": the extra substep after a cut solves only the vertices within 3 cm
-// of the cut (systems/local_relaxation.hpp), the rest of the sheet held; other points propagate as with
+// of the tear (systems/local_relaxation.hpp), the rest of the sheet held; other points propagate as with
 // "substep".
 void BM_FramePatchRelaxation(benchmark::State& state) { frame_few_substeps(state, "patch"); }
-BENCHMARK(BM_FramePatchRelaxation)
-    ->ArgsProduct({{10000}, {1}, {2}})
-    ->ArgNames({"triangles", "substeps", "threads"})
-    ->Unit(benchmark::kMillisecond)
-    ->Iterations(60)
-    ->UseRealTime();
+BENCHMARK(BM_FramePatchRelaxation)->ArgsProduct({{10000}, {1}, {2}})->Apply(big_sheet_frames);
 
 // The force kernel alone: corotated membrane corner forces over all triangles, one core.
 void BM_MembraneForces(benchmark::State& state) {

@@ -17,6 +17,7 @@
 #include "systems/membrane_forces.hpp"
 #include "systems/propagation.hpp"
 #include "systems/regions.hpp"
+#include "systems/scoped_timer.hpp"
 #include "systems/mesh_quality.hpp"
 #include "systems/remeshing.hpp"
 #include "systems/topology.hpp"
@@ -40,17 +41,6 @@ namespace pt {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-// Scoped timer adding to one FrameProfile field.
-struct ScopedTimer {
-  double& slot;
-  Clock::time_point t0 = Clock::now();
-  explicit ScopedTimer(double& s) : slot(s) {}
-  ~ScopedTimer() { slot += ms_since(t0); }
-};
 
 uint64_t fnv1a(uint64_t h, const void* data, size_t bytes) {
   const auto* p = static_cast<const unsigned char*>(data);

@@ -1,6 +1,8 @@
 // The carving system (paper §6, DESIGN §5.6). See carving.hpp for the side-label map design.
 #include "systems/carving.hpp"
 
+#include "systems/pattern_geometry.hpp"
+
 #include <algorithm>
 #include <climits>
 #include <cmath>
@@ -165,13 +167,6 @@ void carve_segment(const FiberField& fiber, const DetailParams& params, Tear& te
   label_band(params, a, b, path, tear.id, state);
   state.carved_segments += 1;
   state.path_pixels += static_cast<int64_t>(path.size());
-}
-
-double point_segment_distance2(const Vec2& p, const Vec2& a, const Vec2& b) {
-  const Vec2 ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  return (p - (a + t * ab)).squaredNorm();
 }
 
 }  // namespace

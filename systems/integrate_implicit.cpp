@@ -3,9 +3,9 @@
 #include "systems/block_ldlt.hpp"
 
 #include "components/capacity_bytes.hpp"
+#include "systems/scoped_timer.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 
 namespace pt {
@@ -111,21 +111,6 @@ size_t implicit_solver_bytes(const ImplicitSolver& s) {
 }
 
 namespace {
-
-// Adds the wall time of its scope, in ms, to `total` (ImplicitStats' per-part times).
-class AddElapsedMs {
- public:
-  explicit AddElapsedMs(double& total) : total_(total), start_(std::chrono::steady_clock::now()) {}
-  ~AddElapsedMs() {
-    total_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
-  }
-  AddElapsedMs(const AddElapsedMs&) = delete;
-  AddElapsedMs& operator=(const AddElapsedMs&) = delete;
-
- private:
-  double& total_;
-  std::chrono::steady_clock::time_point start_;
-};
 
 void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vector<int32_t> held_sorted,
                      ImplicitSolver& s) {
@@ -244,7 +229,7 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
   const BlockLdltParams ldlt_params;
   if (s.free_count < ldlt_params.dissection_leaf) free_rest.clear();  // not read by the analysis
   if (!s.analysed || s.block_key != s.analysed_keys || free_rest != s.analysed_rest) {
-    AddElapsedMs timer(s.stats.analysis_ms);
+    ScopedTimer timer(s.stats.analysis_ms);
     analyze_block_ldlt(s.free_count, s.block_key, ldlt_params, s.ldlt, free_rest, params.run);
     s.analysed_keys = s.block_key;
     s.analysed_rest = std::move(free_rest);
@@ -367,7 +352,7 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
       !(s.material == key_of(sheet.material)) || s.alpha != params.mass_damping || s.beta != params.stiffness_damping) {
     const double analysis_before = s.stats.analysis_ms;
     {
-      AddElapsedMs timer(s.stats.structure_ms);
+      ScopedTimer timer(s.stats.structure_ms);
       build_structure(sheet, params, held_sorted, s);
     }
     s.stats.structure_ms -= s.stats.analysis_ms - analysis_before;  // the analysis has its own total
@@ -463,7 +448,7 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   auto solve = [&]() -> bool {
     std::vector<Mat3>& values = s.block_values;
     {
-      AddElapsedMs timer(s.stats.assembly_ms);
+      ScopedTimer timer(s.stats.assembly_ms);
       std::copy(s.base_values.begin(), s.base_values.end(), values.begin());
       s.rhs.setZero();
       for (int32_t v = 0; v < nv; ++v) {
@@ -491,7 +476,7 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
     }
 
     {
-      AddElapsedMs timer(s.stats.factorization_ms);  // a refused factorisation returns from inside
+      ScopedTimer timer(s.stats.factorization_ms);  // a refused factorisation returns from inside
       s.stats.factorizations += 1;
       if (!factorize_block_ldlt(values, params.run, s.ldlt)) {
         // The matrix is positive definite in exact arithmetic (lumped masses plus positive semidefinite
@@ -517,7 +502,7 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
       }
     }
     {
-      AddElapsedMs timer(s.stats.solve_ms);
+      ScopedTimer timer(s.stats.solve_ms);
       solve_block_ldlt(s.ldlt, s.rhs.data(), s.solution.data(), params.run);
     }
     if (!s.solution.allFinite()) {

@@ -1,19 +1,14 @@
 #include "systems/local_relaxation.hpp"
 
+#include "systems/pattern_geometry.hpp"
 #include "systems/topology.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace pt {
 
 namespace {
-
-double distance_to_segment(const Vec2& p, const Vec2& a, const Vec2& b) {
-  const Vec2 ab = b - a;
-  const double length2 = ab.squaredNorm();
-  const double s = length2 > 0 ? std::clamp((p - a).dot(ab) / length2, 0.0, 1.0) : 0.0;
-  return (p - (a + s * ab)).norm();
-}
 
 // Copies sheet vertex `from` into patch vertex `to` (the arrays the implicit step reads).
 void copy_vertex(const Vertices& from_verts, int32_t from, int32_t to, Vertices& to_verts) {
@@ -62,19 +57,20 @@ LocalRelaxationResult relax_patch_after_cut(const ImplicitParams& params, const 
   low.array() -= local.radius;
   high.array() += local.radius;
   for (int32_t v = 0; v < nv; ++v) {
+    if (V.flags[v] & kNew) {
+      mark_free(v);
+      for (int32_t t : topo.fan(v))
+        for (int32_t c : T.tri[t]) mark_free(c);
+    }
     const Vec2& q = V.rest[v];
     if (q.x() < low.x() || q.y() < low.y() || q.x() > high.x() || q.y() > high.y()) continue;
-    for (size_t k = 0; k < path.size(); ++k)
-      if (distance_to_segment(q, path[k], path[std::min(k + 1, path.size() - 1)]) <= local.radius) {
+    for (size_t k = 0; k < path.size(); ++k) {
+      const Vec2& end = path[std::min(k + 1, path.size() - 1)];
+      if (std::sqrt(point_segment_distance2(q, path[k], end)) <= local.radius) {
         mark_free(v);
         break;
       }
-  }
-  for (int32_t v = 0; v < nv; ++v) {
-    if (!(V.flags[v] & kNew)) continue;
-    mark_free(v);
-    for (int32_t t : topo.fan(v))
-      for (int32_t c : T.tri[t]) mark_free(c);
+    }
   }
   std::sort(free_vertices.begin(), free_vertices.end());
   if (free_vertices.empty()) {

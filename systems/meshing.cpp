@@ -2,6 +2,7 @@
 // CGAL constrained Delaunay refinement. CGAL stays inside this file so no other translation unit pays
 // for its headers.
 #include "systems/meshing.hpp"
+#include "systems/pattern_geometry.hpp"
 
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
 #include <CGAL/Delaunay_mesh_face_base_2.h>
@@ -153,14 +154,6 @@ Vec2 from_frame(const Problem& pb, const Vec2& q) {
   return Vec2(pb.cos_r * q.x() + pb.sin_r * q.y(), -pb.sin_r * q.x() + pb.cos_r * q.y()) + pb.center;
 }
 
-double segment_distance2(const Vec2& a, const Vec2& b, const Vec2& p, double* t_out = nullptr) {
-  const Vec2 ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  if (t_out) *t_out = t;
-  return (a + t * ab - p).squaredNorm();
-}
-
 Problem prepare(const MeshRequest& rq) {
   Problem pb;
   const auto& outline = rq.outline;
@@ -193,7 +186,7 @@ Problem prepare(const MeshRequest& rq) {
     double best_d2 = snap * snap, best_t = 0;
     for (size_t e = 0; e < n; ++e) {
       double t;
-      const double d2 = segment_distance2(outline[e], outline[(e + 1) % n], p, &t);
+      const double d2 = point_segment_distance2(p, outline[e], outline[(e + 1) % n], &t);
       if (d2 <= best_d2) best_edge = e, best_d2 = d2, best_t = t;
     }
     if (best_edge < n) {
@@ -308,7 +301,7 @@ std::vector<Point> steiner_lattice(const Problem& pb, const MeshRequest& rq, dou
       cell_of(site, cx, cy);
       bool ok = true;
       for (int32_t e : cells[size_t(cy * nx + cx)]) {
-        if (segment_distance2(ring[e], ring[(size_t(e) + 1) % r], site) < clear * clear) {
+        if (point_segment_distance2(site, ring[e], ring[(size_t(e) + 1) % r]) < clear * clear) {
           ok = false;
           break;
         }

@@ -1,0 +1,20 @@
+// Small 2D geometry of the pattern shared by systems (meshing, carving, the patch relaxation).
+#pragma once
+
+#include "components/sheet.hpp"
+
+#include <algorithm>
+
+namespace pt {
+
+// Squared distance from p to the segment [a, b] (a point when a = b); `t_out`, if given, receives the
+// parameter in [0, 1] of the closest point a + t (b − a).
+inline double point_segment_distance2(const Vec2& p, const Vec2& a, const Vec2& b, double* t_out = nullptr) {
+  const Vec2 ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  if (t_out) *t_out = t;
+  return (p - (a + t * ab)).squaredNorm();
+}
+
+}  // namespace pt
