@@ -102,8 +102,8 @@ struct Simulation::Impl {
   PropagationParams propagation_params;
   RemeshParams remesh_params;
   bool material_force_direction = false;  // "tearing": {"direction": "material_force"}
-  bool relax_next_frame = false;          // "sim": {"relaxation": "next_frame"}
-  bool relax_patch = false;               // "sim": {"relaxation": "patch"}
+  // "sim": {"relaxation": ...}: an extra substep of the sheet, the next frame's physics, or a patch's substep.
+  enum class Relaxation { Substep, NextFrame, Patch } relaxation = Relaxation::Substep;
   LocalRelaxationParams local_relaxation;
   LocalRelaxationScratch local_scratch;
   int64_t patch_failures = 0;  // patch relaxations the implicit step refused (reported with the solver's)
@@ -173,8 +173,9 @@ struct Simulation::Impl {
     membrane = membrane_params(m);
     take_propagation_params(m);
     material_force_direction = scenario.tearing.direction == "material_force";
-    relax_next_frame = scenario.sim.relaxation == "next_frame";
-    relax_patch = scenario.sim.relaxation == "patch";  // validated: only with the implicit solver
+    relaxation = scenario.sim.relaxation == "next_frame" ? Relaxation::NextFrame
+                 : scenario.sim.relaxation == "patch"    ? Relaxation::Patch  // validated: implicit solver only
+                                                         : Relaxation::Substep;
     local_relaxation.radius = scenario.sim.relaxation_radius;
     driving_force_radius = scenario.tearing.radius;
     remesh_params.snap_fraction = scenario.tearing.snap_fraction();
@@ -430,7 +431,7 @@ struct Simulation::Impl {
         refresh_role_flags();
         extended.insert(tear_id);
       }
-      if (relax_next_frame) {
+      if (relaxation == Relaxation::NextFrame) {
         // The next frame's physics is this propagation's relaxation, and no other point propagates before
         // it. The forces and candidates are brought to the new mesh (ids changed) for what reads them.
         run_forces();
@@ -439,7 +440,7 @@ struct Simulation::Impl {
       }
       {
         ScopedTimer timer(profile.relaxation);
-        if (relax_patch) {
+        if (relaxation == Relaxation::Patch) {
           std::vector<int32_t> held;
           std::vector<Vec3> target;
           held_vertices(1.0, held, target);
