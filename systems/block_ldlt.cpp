@@ -448,10 +448,9 @@ void analyze_supernodes(int32_t n, const std::vector<std::pair<int32_t, int32_t>
                         std::vector<double>& work, std::vector<int32_t>& super_parent) {
   // Supernodes: column k joins the supernode of k − 1 when k is k − 1's parent; every column j of the
   // run then takes the pattern {j+1 .. last} ∪ pattern(last), its own pattern (fundamental supernode,
-  // no zeros) or a superset of it (relaxed, explicit zeros). Relaxed as CHOLMOD does: any run of up to
-  // 4 columns, up to 16 with at most 80% zeros, up to 48 with 10%, else 5%. Panels of a few columns and
-  // dense products beat many 1-column updates. Capped in width so a separator becomes several panels
-  // whose mutual updates split into row chunks like any other.
+  // no zeros) or a superset of it (relaxed, explicit zeros, within params.relaxed_zeros*). Panels of a few
+  // columns and dense products beat many 1-column updates. Capped in width so a separator becomes several
+  // panels whose mutual updates split into row chunks like any other.
   std::vector<int32_t> super_of(n);
   out.super_start.clear();
   for (int32_t k = 0; k < n; ++k) {
@@ -464,8 +463,7 @@ void analyze_supernodes(int32_t n, const std::vector<std::pair<int32_t, int32_t>
         zeros += k - j + count[k] - count[j];
       }
       const double fraction = static_cast<double>(zeros) / static_cast<double>(entries);
-      joins = zeros == 0 || width <= 4 || (width <= 16 && fraction <= 0.8) || (width <= 48 && fraction <= 0.1) ||
-              fraction <= 0.05;
+      joins = zeros == 0 || fraction <= (width <= 4 ? params.relaxed_zeros_narrow : params.relaxed_zeros);
     }
     if (!joins) out.super_start.push_back(k);
     super_of[k] = static_cast<int32_t>(out.super_start.size()) - 1;
