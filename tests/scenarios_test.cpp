@@ -445,6 +445,21 @@ TEST(Scenarios, DISABLED_ZigzagHasThreeDirectionChanges) {
 // PT_ISSUE3_TRIANGLES=N meshes every sheet with N triangles instead of the files' ~300 (1 200: ~5 min).
 // PT_ISSUE3_RELAXATION=patch (or next_frame) sets sim.relaxation of every run.
 //   build/bin/scenarios_test --gtest_also_run_disabled_tests --gtest_filter='*Issue3Measurements*'
+// The angle (radians) between each coarse step of tear 0 and O'Keefe's direction at its start P: away
+// from the fingers, along the bisector of PA and PB (DESIGN §5.4, "checks that follow"; the tangent of the
+// hyperbola through P). A step's own error, so it does not add up along the path as the distances do.
+std::vector<double> okeefe_step_errors(const Scenario& s, const Sheet& sheet) {
+  const Vec2 a = finger_uv(s, "A"), b = finger_uv(s, "B");
+  const std::vector<Vec2>& tips = sheet.tears.at(0).tips;
+  std::vector<double> errors;
+  for (size_t i = 1; i < tips.size(); ++i) {
+    const Vec2 p = tips[i - 1], step = tips[i] - p;
+    const Vec2 okeefe = -((a - p).normalized() + (b - p).normalized());
+    errors.push_back(std::atan2(std::abs(okeefe.x() * step.y() - okeefe.y() * step.x()), okeefe.dot(step)));
+  }
+  return errors;
+}
+
 TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
   const int meshes = 16;
   const char* triangles = std::getenv("PT_ISSUE3_TRIANGLES");
@@ -455,6 +470,11 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
   const Scenario fig16 = load_scenario(scenario_path("fig16-zigzag.json"));
   for (const char* direction : {"bisector", "material_force"}) {
     std::vector<double> mediator, fig14_tears, inplane, inplane_3cm, hyperbola, hyperbola_2x, zigzag, fig16_tears;
+    // Per-step errors against O'Keefe's direction (degrees), all steps of all meshes.
+    std::vector<double> step_fig14, step_inplane, step_fig15, steps_fig14;
+    auto step_errors = [](const std::vector<double>& errors, std::vector<double>& all_degrees) {
+      for (double e : errors) all_degrees.push_back(e * 180 / std::numbers::pi);
+    };
     size_t violations = 0, refused = 0;  // DESIGN §5.5 invariants broken, substeps the solver refused
     auto tally = [&](const ScenarioRun& r) {
       violations += r.sim->invariant_violations().size();
@@ -477,6 +497,9 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
         tally(r);
         mediator.push_back(100 * mediator_error(s, r.sheet()));
         fig14_tears.push_back(static_cast<double>(r.sheet().tears.size()));
+        const std::vector<double> errors = okeefe_step_errors(s, r.sheet());
+        step_errors(errors, step_fig14);
+        steps_fig14.push_back(static_cast<double>(errors.size()));
       }
       {
         const Scenario s = remeshed(fig14_inplane);
@@ -485,6 +508,7 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
         tally(r);
         inplane.push_back(100 * mediator_error(s, r.sheet()));
         inplane_3cm.push_back(100 * mediator_error(s, r.sheet(), 0.03));
+        step_errors(okeefe_step_errors(s, r.sheet()), step_inplane);
       }
       for (const double cap : {1.0, 2.0}) {
         Scenario s = remeshed(fig15);
@@ -498,6 +522,7 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
         for (const Vec2& p : tips) worst = std::max(worst, std::abs((p - a).norm() - (p - b).norm() - d0));
         tally(r);
         (cap == 1.0 ? hyperbola : hyperbola_2x).push_back(100 * worst / (a - b).norm());
+        if (cap == 1.0) step_errors(okeefe_step_errors(s, r.sheet()), step_fig15);
       }
       {
         ScenarioRun r = run_scenario(remeshed(fig16));
@@ -523,6 +548,10 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
     print("Fig. 15 same, twice the step cap", hyperbola_2x);
     print("Fig. 16 direction changes > 0.2", zigzag);
     print("Fig. 16 tears", fig16_tears);
+    print("Fig. 14 steps of tear 0", steps_fig14);
+    print("Fig. 14 step error vs O'Keefe, degrees", step_fig14);
+    print("Fig. 14 in plane: the same", step_inplane);
+    print("Fig. 15: the same", step_fig15);
     std::printf("mesh invariant violations %zu, refused substeps %zu (80 runs)\n", violations, refused);
   }
 }
