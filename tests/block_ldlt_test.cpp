@@ -337,6 +337,78 @@ TEST(BlockLdlt, SupernodalFactorSolvesLikeADenseCholesky) {
   }
 }
 
+TEST(BlockLdlt, RelaxedSupernodesHoldAllOfLAndNoMoreZerosThanAllowed) {
+  // The supernodes' panels against L's block pattern from a dense symbolic elimination (fill: i and k
+  // both below j in column j are then coupled): every non-zero block of L is in its column's panel, and
+  // each panel's explicit zeros are at most the share BlockLdltParams allows for its width (none at all
+  // with a share of 0, fundamental supernodes). The factors of every setting solve the same system.
+  std::mt19937 rng(41);
+  const int32_t w = 24, h = 18, n = w * h;
+  const Keys keys = sheet_pattern(w, h);
+  std::vector<Eigen::Vector2d> xy(n);
+  for (int32_t v = 0; v < n; ++v) xy[v] = Eigen::Vector2d(v % w, v / w);
+  const std::vector<Mat3> values = random_values(keys, n, 0.5, rng);
+  const Eigen::VectorXd b = Eigen::VectorXd::Random(3 * n);
+  const Eigen::VectorXd truth = dense(keys, values, n).llt().solve(b);
+  struct Setting {
+    double narrow, wide;
+    int32_t width;
+  };
+  for (const Setting& setting : {Setting{0.0, 0.0, 16}, Setting{0.3, 0.1, 16}, Setting{0.8, 0.1, 32}}) {
+    BlockLdltParams params = small_chunks(4);
+    params.dissection_leaf = 64;
+    params.relaxed_zeros_narrow = setting.narrow;
+    params.relaxed_zeros = setting.wide;
+    params.supernode_width = setting.width;
+    BlockLdlt ldlt;
+    analyze_block_ldlt(n, keys, params, ldlt, xy);
+    ASSERT_TRUE(ldlt.supernodal);
+    // L's pattern in factor order: below[j][i] for i > j.
+    std::vector<int32_t> rank(n);
+    for (int32_t k = 0; k < n; ++k) rank[ldlt.order[k]] = k;
+    std::vector<std::vector<char>> below(n, std::vector<char>(n, 0));
+    for (const auto& [r, c] : keys)
+      if (rank[r] > rank[c]) below[rank[c]][rank[r]] = 1;
+    for (int32_t j = 0; j < n; ++j)
+      for (int32_t i = j + 1; i < n; ++i)
+        if (below[j][i])
+          for (int32_t k = i + 1; k < n; ++k)
+            if (below[j][k]) below[i][k] = 1;
+    const SupernodalFactor& sf = ldlt.supernodes;
+    const int32_t supernodes = static_cast<int32_t>(sf.super_start.size()) - 1;
+    int32_t widest = 0, relaxed = 0;
+    for (int32_t s = 0; s < supernodes; ++s) {
+      const int32_t first = sf.super_start[s], width = sf.super_start[s + 1] - first;
+      const int32_t rows = sf.row_start[s + 1] - sf.row_start[s];
+      std::vector<char> in_panel(n, 0);
+      for (int32_t q = sf.row_start[s]; q < sf.row_start[s + 1]; ++q) in_panel[sf.super_row[q]] = 1;
+      int64_t entries = 0, nonzeros = 0;
+      for (int32_t c = 0; c < width; ++c) {
+        const int32_t j = first + c;
+        entries += rows - c;  // the panel's rows from j's diagonal down
+        nonzeros += 1;
+        for (int32_t i = j + 1; i < n; ++i) {
+          if (!below[j][i]) continue;
+          ++nonzeros;
+          ASSERT_TRUE(in_panel[i]) << "L(" << i << ", " << j << ") is not in supernode " << s << "'s panel";
+        }
+      }
+      const double zeros = static_cast<double>(entries - nonzeros) / static_cast<double>(entries);
+      EXPECT_LE(zeros, width <= 4 ? setting.narrow : setting.wide) << "supernode " << s << ", width " << width;
+      widest = std::max(widest, width);
+      relaxed += entries > nonzeros;
+    }
+    EXPECT_LE(widest, setting.width);
+    if (setting.narrow > 0) {
+      EXPECT_GT(relaxed, 0) << "no relaxed supernode: the setting is not exercised";
+    }
+    ASSERT_TRUE(factorize_block_ldlt(values, run_serial, ldlt));
+    Eigen::VectorXd x(3 * n);
+    solve_block_ldlt(ldlt, b.data(), x.data());
+    EXPECT_LE((x - truth).norm(), 1e-11 * truth.norm()) << "zeros " << setting.narrow << " / " << setting.wide;
+  }
+}
+
 TEST(BlockLdlt, ReanalysisOfAnotherPatternKeepsTheSupernodalPanelsAndSolves) {
   // The panels' storage is kept from one analysis to the next (a cut re-analyses the sheet): a smaller
   // pattern after a bigger one, then a bigger one again, each factored (with a factor of the previous

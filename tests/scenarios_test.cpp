@@ -439,12 +439,6 @@ TEST(Scenarios, DISABLED_ZigzagHasThreeDirectionChanges) {
   EXPECT_GE(changes, 3);
 }
 
-// Issue 3's measuring harness: the three path claims above over 16 meshes (mesh_seed 0–15, rotated by
-// 17°·seed), for both tip directions, printed as distributions, no assertions (~40 s). Compare engine
-// changes with it, not with one mesh: every path is chaotic in the mesh and in the last bit of the physics.
-// PT_ISSUE3_TRIANGLES=N meshes every sheet with N triangles instead of the files' ~300 (1 200: ~5 min).
-// PT_ISSUE3_RELAXATION=patch (or next_frame) sets sim.relaxation of every run.
-//   build/bin/scenarios_test --gtest_also_run_disabled_tests --gtest_filter='*Issue3Measurements*'
 // The angle (radians) between each coarse step of tear 0 and O'Keefe's direction at its start P: away
 // from the fingers, along the bisector of PA and PB (DESIGN §5.4, "checks that follow"; the tangent of the
 // hyperbola through P). A step's own error, so it does not add up along the path as the distances do.
@@ -460,6 +454,12 @@ std::vector<double> okeefe_step_errors(const Scenario& s, const Sheet& sheet) {
   return errors;
 }
 
+// Issue 3's measuring harness: the three path claims above over 16 meshes (mesh_seed 0–15, rotated by
+// 17°·seed), for both tip directions, printed as distributions, no assertions (~40 s). Compare engine
+// changes with it, not with one mesh: every path is chaotic in the mesh and in the last bit of the physics.
+// PT_ISSUE3_TRIANGLES=N meshes every sheet with N triangles instead of the files' ~300 (1 200: ~5 min).
+// PT_ISSUE3_RELAXATION=patch (or next_frame) sets sim.relaxation of every run.
+//   build/bin/scenarios_test --gtest_also_run_disabled_tests --gtest_filter='*Issue3Measurements*'
 TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
   const int meshes = 16;
   const char* triangles = std::getenv("PT_ISSUE3_TRIANGLES");
@@ -472,8 +472,8 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
     std::vector<double> mediator, fig14_tears, inplane, inplane_3cm, hyperbola, hyperbola_2x, zigzag, fig16_tears;
     // Per-step errors against O'Keefe's direction (degrees), all steps of all meshes.
     std::vector<double> step_fig14, step_inplane, step_fig15, steps_fig14;
-    auto step_errors = [](const std::vector<double>& errors, std::vector<double>& all_degrees) {
-      for (double e : errors) all_degrees.push_back(e * 180 / std::numbers::pi);
+    auto append_degrees = [](const std::vector<double>& errors, std::vector<double>& all) {
+      for (double e : errors) all.push_back(e * 180 / std::numbers::pi);
     };
     size_t violations = 0, refused = 0;  // DESIGN §5.5 invariants broken, substeps the solver refused
     auto tally = [&](const ScenarioRun& r) {
@@ -498,7 +498,7 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
         mediator.push_back(100 * mediator_error(s, r.sheet()));
         fig14_tears.push_back(static_cast<double>(r.sheet().tears.size()));
         const std::vector<double> errors = okeefe_step_errors(s, r.sheet());
-        step_errors(errors, step_fig14);
+        append_degrees(errors, step_fig14);
         steps_fig14.push_back(static_cast<double>(errors.size()));
       }
       {
@@ -508,7 +508,7 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
         tally(r);
         inplane.push_back(100 * mediator_error(s, r.sheet()));
         inplane_3cm.push_back(100 * mediator_error(s, r.sheet(), 0.03));
-        step_errors(okeefe_step_errors(s, r.sheet()), step_inplane);
+        append_degrees(okeefe_step_errors(s, r.sheet()), step_inplane);
       }
       for (const double cap : {1.0, 2.0}) {
         Scenario s = remeshed(fig15);
@@ -522,7 +522,7 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
         for (const Vec2& p : tips) worst = std::max(worst, std::abs((p - a).norm() - (p - b).norm() - d0));
         tally(r);
         (cap == 1.0 ? hyperbola : hyperbola_2x).push_back(100 * worst / (a - b).norm());
-        if (cap == 1.0) step_errors(okeefe_step_errors(s, r.sheet()), step_fig15);
+        if (cap == 1.0) append_degrees(okeefe_step_errors(s, r.sheet()), step_fig15);
       }
       {
         ScenarioRun r = run_scenario(remeshed(fig16));
