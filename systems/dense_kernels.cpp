@@ -13,6 +13,11 @@ namespace dense::avx2 {
 void fill_fma(DenseKernels& k);  // dense_kernels_avx2.cpp
 }
 #endif
+#if defined(PT_HAVE_AVX512_KERNELS)
+namespace dense::avx512 {
+void fill_products(DenseKernels& k);  // dense_kernels_avx512.cpp
+}
+#endif
 
 const DenseKernels& baseline_dense_kernels() {
   static const DenseKernels k = [] {
@@ -46,10 +51,28 @@ const DenseKernels* avx2_dense_kernels() {
 #endif
 }
 
+const DenseKernels* avx512_dense_kernels() {
+#if defined(PT_HAVE_AVX2_KERNELS) && defined(PT_HAVE_AVX512_KERNELS)
+  static const DenseKernels* k = []() -> const DenseKernels* {
+    const DenseKernels* avx2 = avx2_dense_kernels();
+    if (!avx2 || !__builtin_cpu_supports("avx512f")) return nullptr;
+    static DenseKernels d = *avx2;
+    d.name = "avx512+avx2+fma";
+    dense::avx512::fill_products(d);
+    return &d;
+  }();
+  return k;
+#else
+  return nullptr;
+#endif
+}
+
 const DenseKernels& dense_kernels() {
   static const DenseKernels& k = []() -> const DenseKernels& {
     const char* forced = std::getenv("PAPERTEAR_DENSE_KERNELS");
     if (forced && std::strcmp(forced, "baseline") == 0) return baseline_dense_kernels();
+    const bool avx2_only = forced && std::strcmp(forced, "avx2") == 0;
+    if (const DenseKernels* a = avx512_dense_kernels(); a && !avx2_only) return *a;
     if (const DenseKernels* a = avx2_dense_kernels()) return *a;
     return baseline_dense_kernels();
   }();

@@ -5,9 +5,9 @@
 // baseline, whose SSE2 kernels reach 6–7 GFlop/s per core on this machine. So there are two builds, chosen
 // once per process by what the CPU supports: the baseline one (Eigen, dense_kernels_impl.inc) and one
 // compiled for AVX2 + FMA (dense_kernels_avx2.cpp: hand-written products and solve whose entries do not
-// depend on how a panel is chunked, and Eigen's Cholesky compiled for AVX2). A process uses one of them
-// throughout, so results stay bit-identical at any thread count; they differ between the two builds by
-// rounding (FMA).
+// depend on how a panel is chunked, and Eigen's Cholesky compiled for AVX2), whose two products have a third,
+// AVX-512 build giving the same bits. A process uses one of them throughout, so results stay bit-identical
+// at any thread count; they differ between the baseline and the others by rounding (FMA).
 #pragma once
 
 #include <cstdint>
@@ -36,11 +36,13 @@ struct DenseKernels {
   void (*panel_backward)(int32_t n, int32_t m, const double* l, int64_t ld, const double* t, double* y);
 };
 
-// The kernels this process uses: the AVX2 + FMA build when the CPU has both and the build has it, unless
-// the environment says PAPERTEAR_DENSE_KERNELS=baseline.
+// The kernels this process uses: on a CPU with AVX-512F, the AVX2 + FMA build with its two products from
+// dense_kernels_avx512.cpp (the same bits, faster); else the AVX2 + FMA build when the CPU has both; else
+// the baseline. The environment can force PAPERTEAR_DENSE_KERNELS=avx2 or =baseline.
 const DenseKernels& dense_kernels();
-// Each build on its own (tests, benchmarks); avx2_dense_kernels() is null when this CPU or build lacks it.
+// Each build on its own (tests, benchmarks); the pointers are null when this CPU or build lacks it.
 const DenseKernels& baseline_dense_kernels();
 const DenseKernels* avx2_dense_kernels();
+const DenseKernels* avx512_dense_kernels();
 
 }  // namespace pt

@@ -15,6 +15,7 @@ namespace {
 std::vector<const DenseKernels*> builds() {
   std::vector<const DenseKernels*> b{&baseline_dense_kernels()};
   if (const DenseKernels* a = avx2_dense_kernels()) b.push_back(a);
+  if (const DenseKernels* a = avx512_dense_kernels()) b.push_back(a);
   return b;
 }
 
@@ -209,9 +210,47 @@ TEST(DenseKernels, CholeskyRefusesWhatIsNotPositiveDefinite) {
 TEST(DenseKernels, ThisCpuUsesTheFastestBuildItHas) {
   const DenseKernels& k = dense_kernels();
   if (std::getenv("PAPERTEAR_DENSE_KERNELS")) GTEST_SKIP() << "forced by the environment";
-  if (avx2_dense_kernels()) EXPECT_EQ(&k, avx2_dense_kernels());
+  if (avx512_dense_kernels()) EXPECT_EQ(&k, avx512_dense_kernels());
+  else if (avx2_dense_kernels()) EXPECT_EQ(&k, avx2_dense_kernels());
   else EXPECT_EQ(&k, &baseline_dense_kernels());
   std::printf("dense kernels: %s\n", k.name);
+}
+
+// The AVX-512 products promise the AVX2 build's bits (a factor must not depend on which of the two a CPU
+// has): every entry of C, on shapes through all of both builds' row tiles, column blocks and masked rows,
+// with strided operands, and C's guard values around it untouched.
+TEST(DenseKernels, Avx512ProductsAreTheAvx2Bits) {
+  const DenseKernels* wide = avx512_dense_kernels();
+  const DenseKernels* avx2 = avx2_dense_kernels();
+  if (!wide || !avx2) GTEST_SKIP() << "this CPU or build has no AVX-512 products";
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int32_t> size(1, 60), inner(0, 100);
+  int32_t shapes = 0;
+  auto compare = [&](int32_t m, int32_t n, int32_t k) {
+    const Strided a = random_matrix(m, k, rng), b = random_matrix(n, k, rng);
+    Strided c_wide(m, n, m + 3, -7.0), c_avx2(m, n, m + 3, -7.0);
+    wide->gemm_nt(m, n, k, a.data.data(), a.ld, b.data.data(), b.ld, c_wide.data.data(), c_wide.ld);
+    avx2->gemm_nt(m, n, k, a.data.data(), a.ld, b.data.data(), b.ld, c_avx2.data.data(), c_avx2.ld);
+    for (int32_t i = 0; i < m; ++i)
+      for (int32_t j = 0; j < n; ++j)
+        ASSERT_EQ(c_wide(i, j), c_avx2(i, j)) << "gemm " << m << "x" << n << "x" << k << " at " << i << "," << j;
+    expect_guards(c_wide, -7.0);
+    Strided l_wide(m, m, m + 2, -7.0), l_avx2(m, m, m + 2, -7.0);
+    for (int32_t j = 0; j < m; ++j)
+      for (int32_t i = 0; i < j; ++i) l_wide(i, j) = l_avx2(i, j) = 99.0;  // strict upper triangle: must stay
+    wide->syrk_lower(m, k, a.data.data(), a.ld, l_wide.data.data(), l_wide.ld);
+    avx2->syrk_lower(m, k, a.data.data(), a.ld, l_avx2.data.data(), l_avx2.ld);
+    for (int32_t j = 0; j < m; ++j)
+      for (int32_t i = 0; i < m; ++i)
+        ASSERT_EQ(l_wide(i, j), l_avx2(i, j)) << "syrk " << m << "x" << k << " at " << i << "," << j;
+    expect_guards(l_wide, -7.0);
+    ++shapes;
+  };
+  for (int32_t m : {1, 7, 8, 9, 15, 16, 17, 23, 24, 25, 47, 48, 49, 96})
+    for (int32_t n : {1, 3, 5, 8, 9, 16, 21})
+      for (int32_t k : {0, 1, 3, 48}) compare(m, n, k);
+  for (int round = 0; round < 200; ++round) compare(size(rng), size(rng), inner(rng));
+  EXPECT_EQ(shapes, 14 * 7 * 4 + 200);
 }
 
 }  // namespace
