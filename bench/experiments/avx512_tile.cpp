@@ -3,15 +3,17 @@
 // with eight-lane vectors: every entry one fused multiply-add chain over the inner index in increasing
 // order, so its results are bit-identical to the AVX2 kernel's (checked below). Shapes are the
 // supernodal updates' (m rows of a chunk, n = 96 columns of the target, k the descendant's width).
-// From the repository root, after `make build`:
-//   g++ -O2 -std=c++20 -mavx512f -mfma -I. -I/usr/include/eigen3 bench/experiments/avx512_tile.cpp \
+// From the repository root, after `make build` (-O3 as CMake's Release build compiles the kernels):
+//   g++ -O3 -std=c++20 -mavx512f -mfma -I. -I/usr/include/eigen3 bench/experiments/avx512_tile.cpp \
 //     build/libpt_integrate.a -o /tmp/avx512_tile && /tmp/avx512_tile
 // Measured 2026-11-23 (Intel Xeon, one core, best of 20 × 200 calls), GFlop/s, AVX2 kernel | 512-bit tiles:
-//   m=48  n=96 k=24:  52.7 | 24x8 26.8, 16x4 23.1, 32x4 27.1, 16x6 26.2, 8x8 20.2
-//   m=96  n=96 k=48:  53.1 | 24x8 28.8, 16x4 23.2, 32x4 17.8, 16x6 27.9, 8x8 22.4
-//   m=192 n=96 k=96:  49.7 | 24x8 28.8, 16x4 23.1, 32x4 17.5, 16x6 25.7, 8x8 22.0
-//   m=384 n=96 k=192: 41.9 | 24x8 29.8, 16x4 20.4, 32x4 17.0, 16x6 23.3, 8x8 20.8
-// This core does not run 512-bit fused multiply-adds faster than two 256-bit ones: not kept.
+//   m=48  n=96 k=24:  52.7 | 24x8 74.9, 16x4 64.7, 32x4 (covers 32 of the 48 rows), 16x6 70.7, 8x8 67.9
+//   m=96  n=96 k=48:  53.8 | 24x8 80.4, 16x4 63.9, 32x4 71.6, 16x6 67.9, 8x8 65.3
+//   m=192 n=96 k=96:  48.6 | 24x8 74.6, 16x4 53.6, 32x4 51.2, 16x6 64.1, 8x8 65.7
+//   m=384 n=96 k=192: 42.3 | 24x8 69.5, 16x4 43.3, 32x4 45.5, 16x6 49.6, 8x8 48.4
+// So the engine has the 24x8 tile (systems/dense_kernels_avx512.cpp). Compiled at -O2 instead, GCC 12 does
+// not unroll the tiles' loops and keeps the accumulators on the stack: 24x8 then ran 26-30 GFlop/s, which
+// first looked like "this core runs 512-bit products no faster" (notes 2026-11-23-11, §2).
 #include "systems/dense_kernels.hpp"
 
 #include <immintrin.h>
