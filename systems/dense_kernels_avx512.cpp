@@ -84,7 +84,9 @@ void column_block_any(int32_t nc, int32_t i0, int32_t i1, int32_t j, int32_t k, 
   }
 }
 
-// C = 0 for an empty inner dimension: rows [first_row(j), m) of each column j.
+// C = 0 for an empty inner dimension: rows [first_row(j), m) of each column j. (The AVX2 file has the same
+// helpers; they are not shared on purpose: an inline function of a header included by files compiled for
+// different instruction sets could be linked from either one.)
 template <typename FirstRow>
 void zero_columns(int32_t m, int32_t n, double* c, int64_t ldc, FirstRow first_row) {
   for (int32_t j = 0; j < n; ++j) std::fill(c + first_row(j) + j * ldc, c + m + j * ldc, 0.0);

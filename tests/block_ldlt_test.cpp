@@ -80,6 +80,13 @@ Keys sheet_pattern(int32_t w, int32_t h) {
   return keys;
 }
 
+// The pattern coordinates of sheet_pattern's vertices (the nested dissection reads them).
+std::vector<Eigen::Vector2d> grid_coordinates(int32_t w, int32_t h) {
+  std::vector<Eigen::Vector2d> xy(w * h);
+  for (int32_t v = 0; v < w * h; ++v) xy[v] = Eigen::Vector2d(v % w, v / w);
+  return xy;
+}
+
 // Random symmetric values, made SPD by diagonal dominance of `margin` (or indefinite when negative).
 std::vector<Mat3> random_values(const Keys& keys, int32_t n, double margin, std::mt19937& rng) {
   std::uniform_real_distribution<double> u(-1, 1);
@@ -278,8 +285,7 @@ TEST(BlockLdlt, NestedDissectionIsAPermutationAndSolves) {
   std::mt19937 rng(17);
   const int32_t w = 70, h = 50, n = w * h;
   const Keys keys = sheet_pattern(w, h);
-  std::vector<Eigen::Vector2d> xy(n);
-  for (int32_t v = 0; v < n; ++v) xy[v] = Eigen::Vector2d(v % w, v / w);
+  const std::vector<Eigen::Vector2d> xy = grid_coordinates(w, h);
   BlockLdlt amd, nd;
   analyze_block_ldlt(n, keys, BlockLdltParams{}, amd);
   analyze_block_ldlt(n, keys, BlockLdltParams{}, nd, xy);
@@ -308,8 +314,7 @@ TEST(BlockLdlt, SupernodalFactorSolvesLikeADenseCholesky) {
   std::mt19937 rng(19);
   const int32_t w = 24, h = 18, n = w * h;
   const Keys keys = sheet_pattern(w, h);
-  std::vector<Eigen::Vector2d> xy(n);
-  for (int32_t v = 0; v < n; ++v) xy[v] = Eigen::Vector2d(v % w, v / w);
+  const std::vector<Eigen::Vector2d> xy = grid_coordinates(w, h);
   BlockLdltParams params = small_chunks(4);
   params.dissection_leaf = 64;
   BlockLdlt ldlt;
@@ -345,8 +350,7 @@ TEST(BlockLdlt, RelaxedSupernodesHoldAllOfLAndNoMoreZerosThanAllowed) {
   std::mt19937 rng(41);
   const int32_t w = 24, h = 18, n = w * h;
   const Keys keys = sheet_pattern(w, h);
-  std::vector<Eigen::Vector2d> xy(n);
-  for (int32_t v = 0; v < n; ++v) xy[v] = Eigen::Vector2d(v % w, v / w);
+  const std::vector<Eigen::Vector2d> xy = grid_coordinates(w, h);
   const std::vector<Mat3> values = random_values(keys, n, 0.5, rng);
   const Eigen::VectorXd b = Eigen::VectorXd::Random(3 * n);
   const Eigen::VectorXd truth = dense(keys, values, n).llt().solve(b);
@@ -420,9 +424,7 @@ TEST(BlockLdlt, ReanalysisOfAnotherPatternKeepsTheSupernodalPanelsAndSolves) {
   for (const auto [w, h] : {std::array{24, 18}, std::array{15, 13}, std::array{26, 19}}) {
     const int32_t n = w * h;
     const Keys keys = sheet_pattern(w, h);
-    std::vector<Eigen::Vector2d> xy(n);
-    for (int32_t v = 0; v < n; ++v) xy[v] = Eigen::Vector2d(v % w, v / w);
-    analyze_block_ldlt(n, keys, params, ldlt, xy);
+    analyze_block_ldlt(n, keys, params, ldlt, grid_coordinates(w, h));
     ASSERT_TRUE(ldlt.supernodal);
     const std::vector<Mat3> values = random_values(keys, n, 0.3, rng);
     ASSERT_TRUE(factorize_block_ldlt(values, run_serial, ldlt));
