@@ -1,6 +1,7 @@
 // The dense kernels of the supernodal factorisation (systems/dense_kernels.hpp), each build that this CPU
-// runs (baseline, and AVX2 + FMA where available), against plain loops: products, the Cholesky factor and
-// the triangular solve, on strided panels with guard values around them that must stay untouched.
+// runs (baseline, AVX2 + FMA and AVX-512 where available), against plain loops: products, the Cholesky
+// factor and the triangular solve, on strided panels with guard values around them that must stay
+// untouched; and the AVX-512 products against the AVX2 ones, bit for bit.
 #include "systems/dense_kernels.hpp"
 
 #include <gtest/gtest.h>
