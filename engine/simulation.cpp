@@ -33,6 +33,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <set>
 #include <stdexcept>
 
@@ -143,6 +144,7 @@ struct Simulation::Impl {
   std::unique_ptr<tbb::flow::graph> graph;
   std::unique_ptr<tbb::flow::broadcast_node<tbb::flow::continue_msg>> start;
   std::vector<std::unique_ptr<tbb::flow::continue_node<tbb::flow::continue_msg>>> nodes;
+  std::vector<std::function<void()>> systems_in_order;  // the nodes' bodies in creation order, a topological one
 
   Impl(const Scenario& s, const EngineOptions& o) : scenario(s), options(o), arena(std::max(1, o.threads)) {
     sheet = build_sheet(scenario);
@@ -467,7 +469,10 @@ struct Simulation::Impl {
 
   // --- the graph --------------------------------------------------------------------------------------
 
+  // A node of the graph; its body is also kept in systems_in_order (run_frame_in_order), so each node must
+  // be created after the nodes it has edges from.
   tbb::flow::continue_node<tbb::flow::continue_msg>& node(std::function<void()> body) {
+    systems_in_order.push_back(body);
     nodes.push_back(std::make_unique<tbb::flow::continue_node<tbb::flow::continue_msg>>(
         *graph, [body = std::move(body)](const tbb::flow::continue_msg&) { body(); }));
     return *nodes.back();
@@ -478,11 +483,11 @@ struct Simulation::Impl {
     graph = std::make_unique<tbb::flow::graph>();
     start = std::make_unique<tbb::flow::broadcast_node<tbb::flow::continue_msg>>(*graph);
     auto& fingers = node([this] { run_fingers(); });
+    auto& carving = node([this] { run_carving(); });
     auto& physics = node([this] { run_physics(); });
     auto& forces = node([this] { run_forces(); });
     auto& regions = node([this] { run_regions(); });
     auto& cands = node([this] { run_candidates(); });
-    auto& carving = node([this] { run_carving(); });
     auto& tearing = node([this] { run_tearing(); });
     make_edge(*start, fingers);
     make_edge(fingers, physics);   // substeps interpolate towards the frame's finger targets
@@ -496,20 +501,15 @@ struct Simulation::Impl {
     make_edge(carving, tearing);
   }
 
-  // The graph's systems in one of its orders, on the calling thread. A sheet no larger than one range of
-  // the kernels (parallel_grain) runs its frame this way: its kernels run serially anyway, and the graph
-  // only moved its systems between the cores — the cut then found the sheet in the other core's cache
-  // (BM_Frame/100 on two threads, three interleaved rounds: the tearing step 17.3–18.9 → 14.4–15.7 µs,
-  // the frame 0.60–0.61 → 0.57 ms; bench/results/2026-11-23-10-notes.txt §8). Same systems, same order
-  // of their effects on the sheet (carving reads only tips cut in earlier frames), so the same results.
+  // The graph's systems in one of its orders (their creation order), on the calling thread. A sheet no
+  // larger than one range of the kernels (parallel_grain) runs its frame this way: its kernels run serially
+  // anyway, and the graph only moved its systems between the cores — the cut then found the sheet in the
+  // other core's cache (BM_Frame/100 on two threads, three interleaved rounds: the tearing step 17.3–18.9 →
+  // 14.4–15.7 µs, the frame 0.60–0.61 → 0.57 ms; bench/results/2026-11-23-10-notes.txt §8). Same systems,
+  // same order of their effects on the sheet (carving reads only tips cut in earlier frames), so the same
+  // results.
   void run_frame_in_order() {
-    run_fingers();
-    run_carving();
-    run_physics();
-    run_forces();
-    run_regions();
-    run_candidates();
-    run_tearing();
+    for (const std::function<void()>& system : systems_in_order) system();
   }
 
   void step() {
