@@ -33,6 +33,12 @@ struct Material {
   double young = 4e9;          // Pa
   double poisson = 0.3;
   double bending_scale = 1;    // multiplies E e³ / (12 (1 − ν²))
+  // The membrane's effective in-plane modulus is membrane_scale · young up to a principal strain of
+  // strain_limit, and young beyond it (docs/physics.md, "Membrane"): a coarse mesh of constant-strain
+  // triangles cannot bend isometrically, and at paper's full stiffness the strains that locking leaves
+  // (1e-4 .. 5e-3) would carry tens of newtons where paper carries millinewtons.
+  double membrane_scale = 0.01;
+  double strain_limit = 0.01;
   double damping = 2.0;        // 1/s, mass-proportional velocity damping
   double tip_damage = 0.15;    // D of eq. 3, in [0,1]: a tip tears ~7x more easily than fresh paper
   uint64_t fiber_seed = 1;     // seed of T_fiber
@@ -212,6 +218,15 @@ struct Finger {
   double attach_time = 0;        // s: the finger is put on the sheet then (a vertex is inserted at uv)
   double release_time = 1e300;   // s: and lets go then
   bool released = false;
+  // A pinch holds up to its grip; beyond it the paper slides through the finger (systems/physics/grip.hpp):
+  // the finger drags its vertex with the grip force until the next frame, then holds it again where it
+  // is, hold_offset away from the finger's own point.
+  double grip = 15;              // N, a firm pinch
+  double reach = 0.02;           // m: the paper has slid out of the pinch once hold_offset is longer
+  bool slipping = false;
+  bool let_go = false;           // the paper slid out of the pinch (released, not by the scenario)
+  int32_t slips = 0;             // times the grip was exceeded
+  Vec3 hold_offset = Vec3::Zero();  // where the held vertex is kept relative to target, m
 };
 
 struct Hand {

@@ -33,6 +33,7 @@ constexpr double kMaxFps = 100'000;
 constexpr double kMaxCoordinate = 1'000;   // m: outline and finger targets
 constexpr double kMaxGravity = 10'000;     // m/s²
 constexpr double kMaxKeyTime = 1e7;        // s
+constexpr double kMaxGrip = 1e4;           // N
 constexpr int64_t kMaxFileBytes = 64ll << 20;
 constexpr int kMaxDepth = 32;
 
@@ -245,13 +246,14 @@ void read_material(const Reader& r, const json& j, Material& m) {
   const std::string path = "material";
   r.expect_object(j, path);
   r.check_keys(j, path, {"thickness", "density", "young", "poisson", "bending_scale", "tip_damage", "fiber_seed",
-                         "fracture_c", "speed", "max_step", "damping", "fiber_scale", "fiber_floor", "min_step"});
+                         "fracture_c", "speed", "max_step", "damping", "fiber_scale", "fiber_floor", "min_step",
+                         "membrane_scale", "strain_limit"});
   const std::pair<const char*, double*> numbers[] = {
       {"thickness", &m.thickness},   {"density", &m.density},       {"young", &m.young},
       {"poisson", &m.poisson},       {"bending_scale", &m.bending_scale}, {"tip_damage", &m.tip_damage},
       {"fracture_c", &m.fracture_c}, {"speed", &m.speed},           {"max_step", &m.max_step},
       {"damping", &m.damping},       {"fiber_scale", &m.fiber_scale}, {"fiber_floor", &m.fiber_floor},
-      {"min_step", &m.min_step}};
+      {"min_step", &m.min_step},     {"membrane_scale", &m.membrane_scale}, {"strain_limit", &m.strain_limit}};
   for (const auto& [key, dst] : numbers)
     if (j.contains(key)) *dst = r.number(j[key], child(path, key));
   if (j.contains("fiber_seed")) m.fiber_seed = r.seed(j["fiber_seed"], child(path, "fiber_seed"));
@@ -311,7 +313,7 @@ void read_fingers(const Reader& r, const json& j, std::vector<FingerSpec>& finge
     const std::string p = child(path, i);
     const json& f = j[i];
     r.expect_object(f, p);
-    r.check_keys(f, p, {"name", "at", "keys", "attach", "release"});
+    r.check_keys(f, p, {"name", "at", "keys", "attach", "release", "grip"});
     FingerSpec spec;
     if (!f.contains("name")) fail(r.file, p, "missing name");
     spec.name = r.string(f["name"], child(p, "name"));
@@ -332,6 +334,7 @@ void read_fingers(const Reader& r, const json& j, std::vector<FingerSpec>& finge
     // A finger put on the sheet (or let go) during a session: a vertex is inserted at `at` then.
     if (f.contains("attach")) spec.attach = r.number(f["attach"], child(p, "attach"));
     if (f.contains("release")) spec.release = r.number(f["release"], child(p, "release"));
+    if (f.contains("grip")) spec.grip = r.number(f["grip"], child(p, "grip"));
     fingers.push_back(std::move(spec));
   }
 }
@@ -502,6 +505,9 @@ void validate_scenario(const Scenario& s) {
   check_positive(file, "material.young", m.young);
   check_range(file, "material.poisson", m.poisson, 0, 0.5, true);
   check_non_negative(file, "material.bending_scale", m.bending_scale);
+  check_range(file, "material.membrane_scale", m.membrane_scale, 0, 1, false);
+  if (!(m.membrane_scale > 0)) fail(file, "material.membrane_scale", "must be > 0 (a fraction of young, at most 1)");
+  check_positive(file, "material.strain_limit", m.strain_limit);
   check_non_negative(file, "material.damping", m.damping);
   check_range(file, "material.tip_damage", m.tip_damage, 0, 1, false);
   check_positive(file, "material.fiber_scale", m.fiber_scale);
@@ -566,6 +572,8 @@ void validate_scenario(const Scenario& s) {
     validate_key_times(file, child(p, "keys"), times);
     if (!std::isfinite(f.attach) || f.attach < 0) fail(file, child(p, "attach"), "must be a time ≥ 0");
     if (!(f.release > f.attach)) fail(file, child(p, "release"), "must come after attach");
+    check_positive(file, child(p, "grip"), f.grip);
+    if (f.grip > kMaxGrip) fail(file, child(p, "grip"), "absurd grip " + fmt(f.grip) + " N (at most " + fmt(kMaxGrip) + ")");
   }
 
   // Hands.

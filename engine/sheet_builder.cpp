@@ -56,6 +56,7 @@ Sheet build_sheet(const Scenario& scenario) {
     f.keys = spec.keys;
     f.attach_time = spec.attach;
     f.release_time = spec.release;
+    f.grip = spec.grip;
     f.start = Vec3(spec.at.x(), spec.at.y(), 0.0);
     f.target = f.start;
     sheet.fingers.push_back(f);

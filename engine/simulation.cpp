@@ -10,6 +10,7 @@
 #include "systems/carving.hpp"
 #include "systems/clustering.hpp"
 #include "systems/fingers.hpp"
+#include "systems/physics/grip.hpp"
 #include "systems/integrate.hpp"
 #include "systems/integrate_implicit.hpp"
 #include "systems/local_relaxation.hpp"
@@ -130,6 +131,7 @@ struct Simulation::Impl {
 
   int32_t frame = 0;
   std::vector<Vec3> targets_begin;  // finger targets at the start of the frame
+  std::vector<Vec3> hold_points, drag;  // per finger, per vertex: scratch of the slipping fingers' drag
   std::vector<Candidate> candidates;
   FiberSampleCache fiber_cache;  // T_fiber per vertex for the candidates' Ef
   FrameProfile profile;
@@ -139,6 +141,8 @@ struct Simulation::Impl {
   RegionSummary region_summary;
   std::vector<std::string> violations;
   int32_t remeshes = 0;
+  double max_strain = 0;              // largest principal in-plane strain at the end of any frame so far
+  std::vector<double> strain_slots;   // per kernel range, for it
 
   tbb::task_arena arena;
   std::unique_ptr<tbb::flow::graph> graph;
@@ -204,14 +208,22 @@ struct Simulation::Impl {
 
   double time_at(int32_t f) const { return f / scenario.sim.fps; }
 
+  // Where finger i keeps its vertex at fraction alpha of the frame: its target plus the offset the paper
+  // has slid by.
+  Vec3 hold_point(size_t i, double alpha) const {
+    const Finger& f = sheet.fingers[i];
+    return (1 - alpha) * targets_begin[i] + alpha * f.target + f.hold_offset;
+  }
+
   void held_vertices(double alpha, std::vector<int32_t>& held, std::vector<Vec3>& target) const {
     held.clear();
     target.clear();
     for (size_t i = 0; i < sheet.fingers.size(); ++i) {
       const Finger& f = sheet.fingers[i];
       if (f.vertex < 0) continue;
+      if (f.slipping) continue;  // dragged with its grip instead (slipping_drag)
       held.push_back(f.vertex);
-      target.push_back((1 - alpha) * targets_begin[i] + alpha * f.target);
+      target.push_back(hold_point(i, alpha));
     }
   }
 
@@ -247,6 +259,7 @@ struct Simulation::Impl {
     attach_and_release(time_at(frame));
     targets_begin.clear();
     for (const Finger& f : sheet.fingers) targets_begin.push_back(f.target);
+    if (regrip_slipping_fingers(sheet.verts, targets_begin, sheet.fingers)) refresh_role_flags();
     update_finger_targets(time_at(frame + 1), sheet.hands, sheet.fingers);
   }
 
@@ -257,9 +270,16 @@ struct Simulation::Impl {
     if (use_projective) {
       prepare_projective_solver(sheet, integrate_params, solver);
       integrate_substep(integrate_params, held, target, *solver, sheet);
-    } else {
-      implicit_substep(implicit_params, held, target, implicit, sheet);
+      return;
     }
+    hold_points.clear();
+    for (size_t i = 0; i < sheet.fingers.size(); ++i) hold_points.push_back(hold_point(i, alpha));
+    slipping_drag(sheet.verts, sheet.fingers, hold_points, drag);
+    implicit_params.external_force = &drag;
+    // verts.force now holds the internal forces of the state this substep started from: the fingers'
+    // reactions during it.
+    if (implicit_substep(implicit_params, held, target, implicit, sheet))
+      check_grip(sheet.verts, scenario.sim.gravity, sheet.fingers);
   }
 
   void run_physics() {
@@ -283,15 +303,24 @@ struct Simulation::Impl {
       gather_corner_forces(sheet.topo, T.tri, T.corner_force, b, e, V.force);
     });
     add_bending_forces(V.x, bending, V.force);
+    // The run's largest principal strain (result.json "max_strain"); a max is the same in any order.
+    std::vector<double>& slot = strain_slots;
+    slot.assign(T.size() / std::max(1, options.parallel_grain) + 1, 0.0);
+    run_ranges(T.size(), options.parallel_grain, [&](int32_t b, int32_t e) {
+      slot[b / std::max(1, options.parallel_grain)] = max_principal_strain(V.x, T.tri, T.rest_inv, b, e);
+    });
+    for (const double v : slot) max_strain = std::max(max_strain, v);
     // A held vertex is in quasi-static balance: the finger supplies what the sheet and gravity do not.
-    for (Finger& f : sheet.fingers) {
+    for (size_t i = 0; i < sheet.fingers.size(); ++i) {
+      Finger& f = sheet.fingers[i];
       if (f.vertex < 0) {
         f.reaction.setZero();
-        continue;
+      } else if (f.slipping) {
+        const Vec3 d = hold_point(i, 1.0) - V.x[f.vertex];
+        f.reaction = d.norm() > 0 ? Vec3(f.grip * d.normalized()) : Vec3::Zero();
       }
-      f.reaction = -(V.force[f.vertex] + V.mass[f.vertex] * scenario.sim.gravity);
-      f.max_force = std::max(f.max_force, f.reaction.norm());
     }
+    check_grip(V, scenario.sim.gravity, sheet.fingers);
   }
 
   void run_forces() {
@@ -555,6 +584,7 @@ const std::vector<FrameStats>& Simulation::frame_stats() const { return impl_->s
 const std::vector<TearEvent>& Simulation::events() const { return impl_->events; }
 const std::vector<std::string>& Simulation::invariant_violations() const { return impl_->violations; }
 int32_t Simulation::remesh_count() const { return impl_->remeshes; }
+double Simulation::max_strain() const { return impl_->max_strain; }
 size_t Simulation::solver_bytes() const { return impl_->implicit ? implicit_solver_bytes(*impl_->implicit) : 0; }
 ImplicitStats Simulation::solver_stats() const {
   ImplicitStats stats = impl_->implicit ? implicit_solver_stats(*impl_->implicit) : ImplicitStats{};
@@ -583,6 +613,7 @@ int32_t Simulation::attach_finger(const std::string& name, const Vec2& uv) {
 
 void Simulation::move_finger(int32_t finger, const Vec3& target) {
   Finger& f = impl_->sheet.fingers.at(finger);
+  if (f.released) return;  // let go (or slid out of its pinch): it holds nothing to move
   const double t = impl_->time_at(impl_->frame + 1);
   if (!f.keys.empty() && f.keys.back().t >= t) f.keys.back().position = target;
   else f.keys.push_back(FingerKey{t, target});

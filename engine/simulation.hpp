@@ -100,6 +100,8 @@ class Simulation {
   const std::vector<TearEvent>& events() const;  // all events so far
   // With EngineOptions::check_invariants: one line per remesh that broke a DESIGN §5.5 invariant.
   const std::vector<std::string>& invariant_violations() const;
+  // Largest principal in-plane strain of the sheet at the end of any frame so far.
+  double max_strain() const;
   int32_t remesh_count() const;
   // Counts of the default implicit integrator so far (all zero with the projective solver): symbolic
   // analyses (after cuts or a change of the held set), numeric factorisations, spin-brake redos, failures.

@@ -18,10 +18,12 @@ constexpr int kPairA[6] = {0, 0, 0, 1, 1, 2};
 constexpr int kPairB[6] = {0, 1, 2, 1, 2, 2};
 
 struct MaterialKey {
-  double young, poisson, thickness, density, bending_scale;
+  double young, poisson, thickness, density, bending_scale, membrane_scale, strain_limit;
   bool operator==(const MaterialKey&) const = default;
 };
-MaterialKey key_of(const Material& m) { return {m.young, m.poisson, m.thickness, m.density, m.bending_scale}; }
+MaterialKey key_of(const Material& m) {
+  return {m.young, m.poisson, m.thickness, m.density, m.bending_scale, m.membrane_scale, m.strain_limit};
+}
 }  // namespace
 
 struct ImplicitSolver {
@@ -396,8 +398,18 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
         // pitch a tent of spurious stretch.
         Mat2 strain = R.transpose() * F;
         strain = 0.5 * (strain + strain.transpose()) - Mat2::Identity();
-        const Mat2 stress = 2 * mp.mu * strain + mp.lambda * strain.trace() * Mat2::Identity();
+        Mat2 stress = 2 * mp.mu * strain + mp.lambda * strain.trace() * Mat2::Identity();
+        StrainLimitTangent limit;
+        strain_limit_term(strain, mp, stress, &limit);
         const Mat2 tension = tensile_part(stress);
+        // A principal direction v stretched past the strain limit adds its modulus k along v:
+        // k (g_a·v)(g_b·v) (R v)(R v)ᵀ (the limit term's Hessian with v frozen, as R is).
+        Vec3 rv[2];
+        double gv[2][3];
+        for (int i = 0; i < limit.count; ++i) {
+          rv[i] = R * limit.direction[i];
+          for (int a = 0; a < 3; ++a) gv[i][a] = g[a].dot(limit.direction[i]);
+        }
         const double i1 = strain.trace() + 2;  // σ₁ + σ₂
         const double kappa =
             brake > 0 ? kBrakeKappa[brake] : std::max(0.0, (mp.mu + mp.lambda) * (i1 - 2) / (mp.mu * i1));
@@ -426,6 +438,8 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
               e += lambda_rg[a][row] * rg[b][col];
               e += twist_rg[b][row] * rg[a][col];
               if (row == col) e += geometric;
+              for (int i = 0; i < limit.count; ++i)
+                e += limit.modulus[i] * gv[i][a] * gv[i][b] * rv[i][row] * rv[i][col];
               out(row, col) = ea * e;
             }
         }
@@ -456,6 +470,11 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
         if (i < 0) continue;
         s.rhs.segment<3>(3 * i) = V.mass[v] * V.v[v] + h * (V.force[v] + V.mass[v] * params.gravity);
       }
+      if (params.external_force && !params.external_force->empty())
+        for (int32_t v = 0; v < nv; ++v) {
+          const int32_t i = s.free_index[v];
+          if (i >= 0) s.rhs.segment<3>(3 * i) += h * (*params.external_force)[v];
+        }
       for (int32_t t = 0; t < nt; ++t)
         for (int k = 0; k < 6; ++k) {
           const int32_t dest = s.tri_dest[t][k];

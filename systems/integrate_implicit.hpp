@@ -57,6 +57,8 @@ struct ImplicitParams {
   double stiffness_damping = 1e-4;  // β, s (Rayleigh): damps in-plane ringing of the stiff membrane
   RangeRunner run = run_serial;
   int32_t grain = 512;
+  // Per-vertex forces besides gravity (a slipping finger's drag), N; null or empty: none.
+  const std::vector<Vec3>* external_force = nullptr;
 };
 
 struct ImplicitSolver;

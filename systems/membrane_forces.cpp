@@ -13,6 +13,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 
 namespace pt {
@@ -65,12 +66,55 @@ Mat32 polar_rotation_degenerate(const Mat32& F) {
 
 MembraneParams membrane_params(const Material& m) {
   MembraneParams p;
-  p.mu = m.young / (2 * (1 + m.poisson));
-  const double lambda0 = m.young * m.poisson / ((1 + m.poisson) * (1 - 2 * m.poisson));
+  const double young = m.young * m.membrane_scale;
+  p.mu = young / (2 * (1 + m.poisson));
+  const double lambda0 = young * m.poisson / ((1 + m.poisson) * (1 - 2 * m.poisson));
   // Plane stress: eliminating σ_zz = 0 gives λ = 2μλ₀/(λ₀ + 2μ) = Eν/(1 − ν²).
   p.lambda = 2 * p.mu * lambda0 / (lambda0 + 2 * p.mu);
   p.thickness = m.thickness;
+  p.strain_limit = m.strain_limit;
+  p.limit_mu = std::max(0.0, m.young / (2 * (1 + m.poisson)) - p.mu);
   return p;
+}
+
+double strain_limit_term(const Mat2& strain, const MembraneParams& params, Mat2& tau, StrainLimitTangent* tangent) {
+  const double a = strain(0, 0), c = strain(1, 1), b = 0.5 * (strain(0, 1) + strain(1, 0));
+  const double m = 0.5 * (a + c), h = 0.5 * (a - c);
+  const double r = std::sqrt(h * h + b * b);
+  const double limit = params.strain_limit;
+  if (!(m + r > limit) || !(params.limit_mu > 0)) return 0;  // the common case: nothing stretched past the limit
+  const double e1 = m + r, e2 = m - r;
+  const double x1 = e1 - limit, x2 = std::max(0.0, e2 - limit);
+  // Unit eigenvector of e1 (the better conditioned of the two formulas), v2 ⟂ v1.
+  Vec2 v1 = h >= 0 ? Vec2(r + h, b) : Vec2(b, r - h);
+  const double n = v1.norm();
+  v1 = n > 1e-300 ? Vec2(v1 / n) : Vec2(1, 0);
+  const Vec2 v2(-v1.y(), v1.x());
+  const double k = 2 * params.limit_mu;
+  tau += k * x1 * (v1 * v1.transpose()) + k * x2 * (v2 * v2.transpose());
+  if (tangent) {
+    tangent->count = 0;
+    tangent->direction[tangent->count] = v1;
+    tangent->modulus[tangent->count++] = k;
+    if (x2 > 0) {
+      tangent->direction[tangent->count] = v2;
+      tangent->modulus[tangent->count++] = k;
+    }
+  }
+  return params.limit_mu * (x1 * x1 + x2 * x2);
+}
+
+double max_principal_strain(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
+                            const std::vector<Mat2>& rest_inv, int32_t begin, int32_t end) {
+  double largest = 0;
+  for (int32_t t = begin; t < end; ++t) {
+    const Mat32 F = deformation_gradient(x, tri[t], rest_inv[t]);
+    const Mat2 e = corotated_strain(F, polar_rotation(F));
+    const double m = 0.5 * (e(0, 0) + e(1, 1)), h = 0.5 * (e(0, 0) - e(1, 1)), b = 0.5 * (e(0, 1) + e(1, 0));
+    const double e1 = m + std::sqrt(h * h + b * b);
+    if (e1 > largest) largest = e1;  // NaN never compares greater
+  }
+  return largest;
 }
 
 Eigen::Matrix<double, 3, 2> deformation_gradient(const std::vector<Vec3>& x, const Tri& tri, const Mat2& rest_inv) {
@@ -141,11 +185,24 @@ inline CorotatedScalars corotated_scalars(const double* x0, const double* x1, co
 // balances them (translation invariance).
 inline void corner_forces_of(double ax, double ay, double az, double bx, double by, double bz, double rax,
                              double ray, double raz, double rbx, double rby, double rbz, double trS, const Mat2& B,
-                             double eA, double two_mu, double lambda, std::array<Vec3, 3>& out) {
+                             double eA, double two_mu, double lambda, const MembraneParams* limit,
+                             std::array<Vec3, 3>& out) {
   const double b00 = B(0, 0), b01 = B(0, 1), b10 = B(1, 0), b11 = B(1, 1);
   const double m = eA * two_mu, l = eA * lambda * (trS - 2) - m;
-  const double pax = m * ax + l * rax, pay = m * ay + l * ray, paz = m * az + l * raz;
-  const double pbx = m * bx + l * rbx, pby = m * by + l * rby, pbz = m * bz + l * rbz;
+  double pax = m * ax + l * rax, pay = m * ay + l * ray, paz = m * az + l * raz;
+  double pbx = m * bx + l * rbx, pby = m * by + l * rby, pbz = m * bz + l * rbz;
+  if (limit != nullptr) {
+    // The strain-limit stress P += R τ, with E = sym(RᵀF) − I.
+    Mat2 strain;
+    const double s01 = 0.5 * (rax * bx + ray * by + raz * bz + rbx * ax + rby * ay + rbz * az);
+    strain << rax * ax + ray * ay + raz * az - 1, s01, s01, rbx * bx + rby * by + rbz * bz - 1;
+    Mat2 tau = Mat2::Zero();
+    if (strain_limit_term(strain, *limit, tau) > 0) {
+      const double t00 = eA * tau(0, 0), t01 = eA * tau(0, 1), t11 = eA * tau(1, 1);
+      pax += rax * t00 + rbx * t01, pay += ray * t00 + rby * t01, paz += raz * t00 + rbz * t01;
+      pbx += rax * t01 + rbx * t11, pby += ray * t01 + rby * t11, pbz += raz * t01 + rbz * t11;
+    }
+  }
   const double f1x = -(pax * b00 + pbx * b01), f1y = -(pay * b00 + pby * b01), f1z = -(paz * b00 + pbz * b01);
   const double f2x = -(pax * b10 + pbx * b11), f2y = -(pay * b10 + pby * b11), f2z = -(paz * b10 + pbz * b11);
   out[0] = Vec3(-(f1x + f2x), -(f1y + f2y), -(f1z + f2z));
@@ -168,7 +225,7 @@ void corotated_corner_forces(const CorotatedFrame& f, const Mat2& rest_inv, doub
   const Mat32& R = f.R;
   corner_forces_of(F(0, 0), F(1, 0), F(2, 0), F(0, 1), F(1, 1), F(2, 1), R(0, 0), R(1, 0), R(2, 0), R(0, 1), R(1, 1),
                    R(2, 1), f.trace_s, rest_inv, params.thickness * rest_area, 2 * params.mu, params.lambda,
-                   corner_force);
+                   params.limit_mu > 0 ? &params : nullptr, corner_force);
 }
 
 void compute_membrane_forces(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
@@ -176,11 +233,12 @@ void compute_membrane_forces(const std::vector<Vec3>& x, const std::vector<Tri>&
                              const MembraneParams& params, int32_t begin, int32_t end,
                              std::vector<std::array<Vec3, 3>>& corner_force) {
   const double two_mu = 2 * params.mu, lambda = params.lambda, e = params.thickness;
+  const MembraneParams* limit = params.limit_mu > 0 ? &params : nullptr;
   for (int32_t t = begin; t < end; ++t) {
     const Tri& c = tri[t];
     const CorotatedScalars s = corotated_scalars(x[c[0]].data(), x[c[1]].data(), x[c[2]].data(), rest_inv[t]);
     corner_forces_of(s.ax, s.ay, s.az, s.bx, s.by, s.bz, s.rax, s.ray, s.raz, s.rbx, s.rby, s.rbz, s.trS, rest_inv[t],
-                     e * rest_area[t], two_mu, lambda, corner_force[t]);
+                     e * rest_area[t], two_mu, lambda, limit, corner_force[t]);
   }
 }
 

@@ -1,6 +1,12 @@
-// Membrane forces: constant-strain triangles with a corotated linear energy (DESIGN §4).
+// Membrane forces: constant-strain triangles with a corotated linear energy (docs/physics.md, "Membrane").
 // Per triangle, F = [x1−x0, x2−x0] · rest_inv (3x2 deformation gradient), R its polar rotation (3x2,
-// orthonormal columns), energy  W = e · A · ( μ ‖F − R‖² + λ/2 · tr(RᵀF − I)² )  with plane-stress λ.
+// orthonormal columns), S = RᵀF (symmetric 2x2 stretch), E = S − I with principal strains ε₁ ≥ ε₂, energy
+//   W = e · A · ( μ ‖F − R‖² + λ/2 · tr(E)² + μ_lim Σᵢ max(0, εᵢ − ε_lim)² )
+// with plane-stress λ. μ and λ are those of the effective in-plane modulus (Material::membrane_scale of
+// young); the last term stiffens a principal direction stretched past the strain limit back to paper's
+// full modulus (μ_lim = μ_full − μ), so strains stay bounded while a locked coarse mesh, whose spurious
+// strains are far below the limit, carries forces of paper's order. Its stress μ_lim 2 max(0, εᵢ − ε_lim)
+// vᵢvᵢᵀ shares E's eigenvectors, so P = R τ with τ = ∂W/∂S holds for it as for the rest.
 // The force on each corner is −∂W/∂x_corner; each triangle writes its own three corner forces
 // (Triangles::corner_force), read again by clustering (paper §5.1).
 #pragma once
@@ -10,10 +16,27 @@
 namespace pt {
 
 struct MembraneParams {
-  double mu = 0;       // Lamé μ, Pa
-  double lambda = 0;   // plane-stress λ, Pa
+  double mu = 0;       // Lamé μ of the effective in-plane modulus, Pa
+  double lambda = 0;   // plane-stress λ of the effective in-plane modulus, Pa
   double thickness = 0;
+  double strain_limit = 1e300;  // ε_lim: principal strain beyond which μ_lim adds
+  double limit_mu = 0;          // μ_lim, Pa
 };
+
+// The strain-limit term for a symmetric 2x2 strain E (rotated frame): returns its energy density
+// μ_lim Σ max(0, εᵢ − ε_lim)² and adds its stress τ = ∂/∂E to `tau`; with `tangent`, also the stiffness of
+// each stretched principal direction, 2 μ_lim vᵢvᵢᵀ ⊗ vᵢvᵢᵀ, as the unit directions and moduli (count ≤ 2).
+struct StrainLimitTangent {
+  int count = 0;
+  Vec2 direction[2];
+  double modulus[2] = {0, 0};
+};
+double strain_limit_term(const Mat2& strain, const MembraneParams& params, Mat2& tau,
+                         StrainLimitTangent* tangent = nullptr);
+
+// Largest principal in-plane strain max(ε₁) over triangles [begin, end) (0 if none is stretched).
+double max_principal_strain(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
+                            const std::vector<Mat2>& rest_inv, int32_t begin, int32_t end);
 MembraneParams membrane_params(const Material& m);
 
 // Deformation gradient (3x2) of triangle t.
@@ -35,17 +58,25 @@ void corotated_frame(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Mat2&
 void corotated_corner_forces(const CorotatedFrame& frame, const Mat2& rest_inv, double rest_area,
                              const MembraneParams& params, std::array<Vec3, 3>& corner_force);
 
-// The energy above per unit thickness and rest area, W = μ ‖F − R‖² + λ/2 d² with d = tr(RᵀF) − 2 (callers
-// pass d as they have it), and its first Piola stress P = ∂W/∂F = 2μ (F − R) + λ d R (R's variation is
-// orthogonal to F − R). The energy check, the integrator and the crack driving force share them.
+// The energy above per unit thickness and rest area, W = μ ‖F − R‖² + λ/2 d² + the strain-limit term, with
+// d = tr(RᵀF) − 2 (callers pass d as they have it), and its first Piola stress P = ∂W/∂F = 2μ (F − R) +
+// λ d R + R τ_lim (R's variation is orthogonal to F − R). The energy check, the integrator and the crack driving force share them.
+inline Mat2 corotated_strain(const Eigen::Matrix<double, 3, 2>& F, const Eigen::Matrix<double, 3, 2>& R) {
+  const Mat2 s = R.transpose() * F;
+  return 0.5 * (s + s.transpose()) - Mat2::Identity();
+}
 inline double corotated_energy_density(const Eigen::Matrix<double, 3, 2>& F, const Eigen::Matrix<double, 3, 2>& R,
                                        double d, const MembraneParams& params) {
-  return params.mu * (F - R).squaredNorm() + 0.5 * params.lambda * d * d;
+  Mat2 tau = Mat2::Zero();
+  return params.mu * (F - R).squaredNorm() + 0.5 * params.lambda * d * d +
+         strain_limit_term(corotated_strain(F, R), params, tau);
 }
 inline Eigen::Matrix<double, 3, 2> corotated_stress(const Eigen::Matrix<double, 3, 2>& F,
                                                     const Eigen::Matrix<double, 3, 2>& R, double d,
                                                     const MembraneParams& params) {
-  return 2 * params.mu * (F - R) + params.lambda * d * R;
+  Mat2 tau = Mat2::Zero();
+  strain_limit_term(corotated_strain(F, R), params, tau);
+  return 2 * params.mu * (F - R) + params.lambda * d * R + R * tau;
 }
 
 // Triangles [begin, end): corner forces, written to corner_force[t]. Serial kernel; the engine calls it

@@ -51,12 +51,105 @@ OneTri random_triangle(std::mt19937& rng, double deform) {
   return o;
 }
 
-TEST(MembraneForces, LameParametersArePlaneStress) {
+TEST(MembraneForces, LameParametersArePlaneStressOfTheEffectiveModulus) {
   const Material m;
   const MembraneParams p = membrane_params(m);
-  EXPECT_NEAR(p.mu, m.young / (2 * (1 + m.poisson)), 1e-6);
-  EXPECT_NEAR(p.lambda, m.young * m.poisson / (1 - m.poisson * m.poisson), 1e-3);
+  const double young = m.young * m.membrane_scale;
+  EXPECT_NEAR(p.mu, young / (2 * (1 + m.poisson)), 1e-6);
+  EXPECT_NEAR(p.lambda, young * m.poisson / (1 - m.poisson * m.poisson), 1e-3);
   EXPECT_EQ(p.thickness, m.thickness);
+  // Past the strain limit a principal direction is as stiff as paper: μ + μ_lim = the full modulus' μ.
+  EXPECT_NEAR(p.mu + p.limit_mu, m.young / (2 * (1 + m.poisson)), 1e-3);
+  EXPECT_EQ(p.strain_limit, m.strain_limit);
+}
+
+// The strain-limit term against its closed form: a uniaxial stretch ε along a direction at angle a of the
+// rest frame has principal strains (ε, 0), so W_lim = μ_lim (ε − ε_lim)² and τ = 2 μ_lim (ε − ε_lim) v vᵀ.
+TEST(MembraneForces, StrainLimitTermOfAUniaxialStretch) {
+  const MembraneParams p = paper_params();
+  for (const double a : {0.0, 0.4, 1.3, 2.9})
+    for (const double eps : {0.005, 0.012, 0.03}) {
+      const Vec2 v(std::cos(a), std::sin(a));
+      const Mat2 strain = eps * v * v.transpose();
+      Mat2 tau = Mat2::Zero();
+      StrainLimitTangent tangent;
+      const double w = strain_limit_term(strain, p, tau, &tangent);
+      const double x = std::max(0.0, eps - p.strain_limit);
+      EXPECT_NEAR(w, p.limit_mu * x * x, 1e-9 * p.limit_mu * 1e-4);
+      EXPECT_LT((tau - 2 * p.limit_mu * x * v * v.transpose()).norm(), 1e-9 * p.limit_mu);
+      EXPECT_EQ(tangent.count, x > 0 ? 1 : 0);
+      if (x > 0) EXPECT_NEAR(std::abs(tangent.direction[0].dot(v)), 1.0, 1e-12);
+    }
+}
+
+// Forces of triangles stretched past the strain limit are still minus the energy gradient (finite
+// differences), and a stretch beyond the limit costs the full modulus: the force of 3% is far more than 3x
+// that of 1%.
+TEST(MembraneForces, StrainLimitedForcesAreMinusEnergyGradient) {
+  const MembraneParams params = paper_params();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int trial = 0; trial < 40; ++trial) {
+    OneTri o = random_triangle(rng, 0);
+    // A stretch of 1–4% along a random direction, then a rigid motion (random_triangle's).
+    const Vec2 d = Vec2(u(rng), u(rng)).normalized();
+    const double eps = 0.01 + 0.03 * std::abs(u(rng));
+    std::vector<Vec2> rest(3);
+    for (int c = 0; c < 3; ++c) {
+      // Recover each rest corner: rest_inv maps Ds to F; build x from rest directly instead.
+      rest[c] = Vec2::Zero();
+    }
+    const Mat2 Dm = o.rest_inv[0].inverse();
+    const Vec2 r1 = Dm.col(0), r2 = Dm.col(1);
+    const Mat2 stretch = Mat2::Identity() + eps * d * d.transpose();
+    const Vec2 s1 = stretch * r1, s2 = stretch * r2;
+    o.x[1] = o.x[0] + Vec3(s1.x(), s1.y(), 0.001 * u(rng));
+    o.x[2] = o.x[0] + Vec3(s2.x(), s2.y(), 0.001 * u(rng));
+    std::vector<std::array<Vec3, 3>> cf(1);
+    compute_membrane_forces(o.x, o.tri, o.rest_inv, o.rest_area, params, 0, 1, cf);
+    double max_f = 0;
+    for (const Vec3& f : cf[0]) max_f = std::max(max_f, f.norm());
+    const double h = 1e-8;
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < 3; ++k) {
+        std::vector<Vec3> xp = o.x, xm = o.x;
+        xp[c][k] += h;
+        xm[c][k] -= h;
+        const double g = (membrane_energy(xp, o.tri, o.rest_inv, o.rest_area, params) -
+                          membrane_energy(xm, o.tri, o.rest_inv, o.rest_area, params)) / (2 * h);
+        EXPECT_NEAR(cf[0][c][k], -g, 2e-5 * max_f) << "trial " << trial << " corner " << c << " dim " << k;
+      }
+  }
+}
+
+TEST(MembraneForces, StrainLimitStiffensPastTheLimit) {
+  const MembraneParams params = paper_params();
+  auto stress_at = [&](double eps) {
+    OneTri o;
+    std::vector<Vec2> rest{Vec2(0, 0), Vec2(0.01, 0), Vec2(0, 0.01)};
+    update_rest_data(rest, o.tri, o.rest_inv, o.rest_area);
+    o.x = {Vec3(0, 0, 0), Vec3(0.01 * (1 + eps), 0, 0), Vec3(0, 0.01, 0)};
+    std::vector<std::array<Vec3, 3>> cf(1);
+    compute_membrane_forces(o.x, o.tri, o.rest_inv, o.rest_area, params, 0, 1, cf);
+    return cf[0][1].x();
+  };
+  const double below = stress_at(0.005), at = stress_at(params.strain_limit), past = stress_at(0.02);
+  EXPECT_NEAR(below / at, 0.5, 1e-6);  // linear below the limit
+  // Past it the slope is the full modulus: (past − at) / (at / ε_lim · Δε) = (μ + μ_lim) / μ.
+  const double slope_ratio = (past - at) / (at / params.strain_limit * (0.02 - params.strain_limit));
+  const double expected = 1 + params.limit_mu * 2 / (2 * params.mu + params.lambda);
+  EXPECT_NEAR(slope_ratio, expected, 0.02 * expected);
+}
+
+TEST(MembraneForces, MaxPrincipalStrain) {
+  OneTri o;
+  std::vector<Vec2> rest{Vec2(0, 0), Vec2(0.01, 0), Vec2(0, 0.01)};
+  update_rest_data(rest, o.tri, o.rest_inv, o.rest_area);
+  const Eigen::Matrix3d rot = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  o.x = {Vec3(0, 0, 0), rot * Vec3(0.01, 0, 0), rot * Vec3(0, 0.0103, 0)};
+  EXPECT_NEAR(max_principal_strain(o.x, o.tri, o.rest_inv, 0, 1), 0.03, 1e-9);
+  o.x = {Vec3(0, 0, 0), Vec3(0.0099, 0, 0), Vec3(0, 0.0098, 0)};  // compressed only
+  EXPECT_EQ(max_principal_strain(o.x, o.tri, o.rest_inv, 0, 1), 0.0);
 }
 
 TEST(MembraneForces, PolarRotationHasOrthonormalColumnsAndSymmetricStretch) {

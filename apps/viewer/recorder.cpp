@@ -49,7 +49,8 @@ json session_json(const Simulation& sim, const std::string& name) {
                    {"poisson", m.poisson},       {"bending_scale", m.bending_scale}, {"damping", m.damping},
                    {"tip_damage", m.tip_damage}, {"fiber_seed", m.fiber_seed},   {"fiber_scale", m.fiber_scale},
                    {"fracture_c", m.fracture_c}, {"speed", m.speed},             {"max_step", m.max_step},
-                   {"min_step", m.min_step},     {"fiber_floor", m.fiber_floor}};
+                   {"min_step", m.min_step},     {"fiber_floor", m.fiber_floor},
+                   {"membrane_scale", m.membrane_scale}, {"strain_limit", m.strain_limit}};
 
   // The detail noise as the simulation has it now (the viewer sets it live).
   json d = {{"sigma", sim.detail_params().sigma}, {"omega", sim.detail_params().omega}};
@@ -77,6 +78,7 @@ json session_json(const Simulation& sim, const std::string& name) {
     // Fingers of the scenario are on the sheet from the start (attach_time 0, a mesh vertex from the
     // meshing); fingers put on during the session are inserted at their attach time.
     if (!in_scenario(sc, f.name) || f.attach_time > 0) jf["attach"] = f.attach_time;
+    jf["grip"] = f.grip;
     if (f.released && std::isfinite(f.release_time) && f.release_time < 1e299) jf["release"] = f.release_time;
     fingers.push_back(jf);
   }

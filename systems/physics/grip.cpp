@@ -1,0 +1,61 @@
+#include "systems/physics/grip.hpp"
+
+#include <algorithm>
+
+namespace pt {
+
+Vec3 held_reaction(const Vertices& verts, const Vec3& gravity, int32_t vertex) {
+  return -(verts.force[vertex] + verts.mass[vertex] * gravity);
+}
+
+bool check_grip(const Vertices& verts, const Vec3& gravity, std::vector<Finger>& fingers) {
+  bool started = false;
+  for (Finger& f : fingers) {
+    if (f.vertex < 0 || f.slipping) continue;
+    f.reaction = held_reaction(verts, gravity, f.vertex);
+    const double force = f.reaction.norm();
+    if (force > f.grip) {
+      f.slipping = true;
+      f.slips += 1;
+      started = true;
+      f.reaction *= f.grip / force;
+    }
+    f.max_force = std::max(f.max_force, std::min(force, f.grip));
+  }
+  return started;
+}
+
+void slipping_drag(const Vertices& verts, const std::vector<Finger>& fingers, const std::vector<Vec3>& hold_point,
+                   std::vector<Vec3>& external) {
+  external.clear();
+  for (size_t i = 0; i < fingers.size(); ++i) {
+    const Finger& f = fingers[i];
+    if (f.vertex < 0 || !f.slipping) continue;
+    if (external.empty()) external.assign(verts.size(), Vec3::Zero());
+    const Vec3 d = hold_point[i] - verts.x[f.vertex];
+    const double n = d.norm();
+    if (n > 0) external[f.vertex] += (f.grip / n) * d;
+  }
+}
+
+bool regrip_slipping_fingers(const Vertices& verts, const std::vector<Vec3>& target_now, std::vector<Finger>& fingers) {
+  bool let_go = false;
+  for (size_t i = 0; i < fingers.size(); ++i) {
+    Finger& f = fingers[i];
+    if (f.vertex < 0 || !f.slipping) continue;
+    const Vec3 offset = verts.x[f.vertex] - target_now[i];
+    f.slipping = false;
+    if (offset.norm() > f.reach) {
+      f.vertex = -1;
+      f.released = true;
+      f.let_go = true;
+      f.reaction.setZero();
+      let_go = true;
+    } else {
+      f.hold_offset = offset;
+    }
+  }
+  return let_go;
+}
+
+}  // namespace pt
