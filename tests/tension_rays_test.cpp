@@ -3,6 +3,7 @@
 // around slits computed by hand, and the same outline on different meshes.
 #include "systems/tearing/tension_rays.hpp"
 #include "systems/meshing.hpp"
+#include "systems/remeshing.hpp"
 #include "systems/topology.hpp"
 
 #include "test_meshes.hpp"
@@ -164,6 +165,39 @@ TEST(TensionRays, PathBendsAroundANotchCorner) {
   EXPECT_NEAR(r.rays[1].path_length, (C - P).norm() + 0.01 + (B - C2).norm(), 1e-12);
   ASSERT_TRUE(r.valid);
   EXPECT_NEAR((r.direction - hyperbola_tangent(P, A, C)).norm(), 0, 1e-9);
+}
+
+// A tear cut by the remesher (systems/remeshing.hpp): up from the bottom edge along grid vertices, then
+// turning 45° right across the cells' diagonals (split at their middles, so the lips stay straight: on
+// a jittered grid the remesher snaps the cut to nearby vertices and the lips zigzag, which moves the
+// corners). A finger on the left pulls the tip around the kink, a reflex corner of the left lip; one
+// on the right sees the tip directly.
+TEST(TensionRays, PathBendsAtTheKinkOfACutTear) {
+  Sheet s = test::alternating_grid(kW, kH, 16, 12, 0.0, 1);
+  const int32_t start = vertex_at(s, Vec2(0.1, 0.0));
+  const CutResult c1 = cut_tear_segment(start, Vec2(0.1, 0.0625), Vec2::Zero(), 0, RemeshParams{}, s);
+  ASSERT_TRUE(c1.cut && c1.tip_vertex >= 0);
+  const Vec2 kink = c1.end;
+  EXPECT_NEAR((kink - Vec2(0.1, 0.0625)).norm(), 0, 1e-15);
+  const CutResult c2 =
+      cut_tear_segment(c1.tip_vertex, kink + Vec2(0.0375, 0.0375), Vec2(0, 1), 0, RemeshParams{}, s);
+  ASSERT_TRUE(c2.cut && c2.tip_vertex >= 0);
+  ASSERT_EQ(check_mesh_invariants(s), "");
+  const Vec2 tip = c2.end, A(0.05, 0.0), B(0.15, 0.0);
+  const TensionRays r = rays_at(s, c2.tip_vertex, {{A, 0.5}, {B, 0.5}});
+  ASSERT_EQ(r.rays.size(), 2u);
+  EXPECT_FALSE(r.rays[0].straight);
+  ASSERT_GE(r.rays[0].first_corner, 0);
+  EXPECT_NEAR((s.verts.rest[r.rays[0].first_corner] - kink).norm(), 0, 1e-15);
+  EXPECT_NEAR((r.rays[0].direction - (kink - tip).normalized()).norm(), 0, 1e-12);
+  EXPECT_NEAR(r.rays[0].path_length, (kink - tip).norm() + (A - kink).norm(), 1e-12);
+  EXPECT_TRUE(r.rays[1].straight);
+  // A's path leaves along the left lip, straight behind b0: it is on the left although A itself lies
+  // right of b0's line (the tear bends).
+  EXPECT_EQ(r.rays[0].side, 1);
+  EXPECT_EQ(r.rays[1].side, -1);
+  ASSERT_TRUE(r.valid) << int(r.status);
+  EXPECT_NEAR((r.direction - hyperbola_tangent(tip, kink, B)).norm(), 0, 1e-9);
 }
 
 // Only load points on p's piece count: a finger on the far side of a full cut is ignored.
@@ -332,4 +366,23 @@ TEST(TensionRays, CostOnASmallSlitSheet) {
   std::printf("compute_tension_rays, 288 triangles, %zu boundary edges, one bent path: %.2f us per call, "
               "%d segment tests\n", scratch.boundary.edges.size(), us, r.paths.visibility_tests);
   RecordProperty("microseconds_per_call", std::to_string(us));
+
+  // 10 000 triangles, five slits (five reflex tips), a path bent at one of them.
+  const Sheet big = slit_grid(0.3, 0.21, 100, 50, {Slit{20, 30}, Slit{35, 20}, Slit{50, 35}, Slit{65, 25}, Slit{80, 30}});
+  ASSERT_EQ(big.tris.size(), 10000);
+  const int32_t q = vertex_at(big, Vec2(0.06, 30 * 0.0042));
+  const std::vector<LoadPoint> far{{vertex_at(big, Vec2(0.0, 0.0)), Vec3(0.7, 0, 0)},
+                                   {vertex_at(big, Vec2(0.18, 0.0)), Vec3(0, 0.9, 0)}};
+  compute_tension_rays(big.verts.rest, big.tris.piece, big.topo, q, far, params(), scratch, r);
+  ASSERT_EQ(r.rays.size(), 2u);
+  EXPECT_FALSE(r.rays[1].straight);
+  const int big_calls = 2000;
+  const auto t1 = std::chrono::steady_clock::now();
+  for (int i = 0; i < big_calls; ++i)
+    compute_tension_rays(big.verts.rest, big.tris.piece, big.topo, q, far, params(), scratch, r);
+  const double big_us =
+      std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t1).count() / big_calls;
+  std::printf("compute_tension_rays, 10000 triangles, %zu boundary edges, %zu reflex: %.2f us per call, "
+              "%d segment tests, path of %d points\n", scratch.boundary.edges.size(), scratch.boundary.reflex.size(),
+              big_us, r.paths.visibility_tests, r.paths.paths[1].point_end - r.paths.paths[1].point_begin);
 }

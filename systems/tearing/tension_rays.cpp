@@ -32,19 +32,35 @@ Vec2 interior_bisector(const Topology& topo, const std::vector<Vec2>& rest, int3
   return rotate(next, 0.5 * interior_pattern_angle(topo, rest, v));
 }
 
-// The side of a path for split line b through p: sign of cross(b, q − p) for its first point q off the
-// line, else of cross(b, material direction at its target) (eq. 4 for directions on the line).
-int32_t path_side(const PatternPaths& paths, const PatternPath& path, const Topology& topo,
-                  const std::vector<Vec2>& rest, const Vec2& p, const Vec2& b, double tol) {
-  for (int32_t i = path.point_begin; i < path.point_end; ++i) {
-    const double c = cross(b, paths.points[i] - p);
-    if (c > tol) return 1;
-    if (c < -tol) return -1;
+// Angle of the path's first segment in p's interior angle, counter-clockwise from the edge to
+// boundary_next, in [0, interior]. At a slit's tip both lips leave in one direction (0 and 2π): the lip
+// the segment runs along tells which, found by walking each lip from p over the vertices on the segment.
+double wedge_angle(const PatternPaths& paths, const PatternPath& path, const Topology& topo,
+                   const std::vector<Vec2>& rest, int32_t p, double interior, double tol, double angle_tol) {
+  const Vec2& pp = rest[p];
+  double alpha = ccw_angle(rest[topo.boundary_next[p]] - pp, path.first_direction);
+  if (alpha > interior) alpha = alpha - interior < kTwoPi - alpha ? interior : 0.0;  // rounding at the ends
+  const bool at_next = alpha <= angle_tol, at_prev = alpha >= interior - angle_tol;
+  if (at_next == at_prev) {
+    if (!at_next) return alpha;
+  } else {
+    if (interior < kTwoPi - 2 * angle_tol) return alpha;  // the two lips leave in different directions
   }
-  const int32_t target = paths.point_vertex[path.point_end - 1];
-  if (topo.boundary_next[target] < 0) return 0;
-  const double c = cross(b, interior_bisector(topo, rest, target));
-  return c > 1e-12 ? 1 : (c < -1e-12 ? -1 : 0);
+  const int32_t q = paths.point_vertex[path.point_begin];
+  const Vec2 d = rest[q] - pp;
+  const double length = d.norm();
+  auto reaches = [&](const std::vector<int32_t>& step) {
+    int32_t v = step[p];
+    for (int32_t k = 0; k < topo.vertex_count() && v >= 0 && v != p; ++k, v = step[v]) {
+      if (v == q) return true;
+      const Vec2 pv = rest[v] - pp;
+      if (std::abs(cross(d, pv)) > tol * length || pv.dot(d) >= length * length) return false;
+    }
+    return false;
+  };
+  if (reaches(topo.boundary_next)) return 0.0;
+  if (reaches(topo.boundary_prev)) return interior;
+  return alpha;
 }
 
 // Weighted sums of the two sides' directions and magnitudes for the current sides.
@@ -132,15 +148,34 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
   }
 
   // Eq. 4 in the pattern: b0 the interior bisector at p, then b_i the bisector line of the two sides'
-  // mean directions, oriented so each side keeps its label, until the split no longer changes.
+  // mean directions, oriented so each side keeps its label, until the split no longer changes. The side
+  // of g_j is the side of the line b through p, cross(b, g_j) > 0 on the left, told by the angles in
+  // p's interior angle: left when g_j is further counter-clockwise from the edge to boundary_next than b.
+  // That is the sign of cross(b, g_j) whenever the two are less than π apart, and keeps the loads of each
+  // lip on its own side when g_j runs back along a lip (a finger on a lip, a path round a tear's kink).
   const Vec2& pp = rest[p];
   const double tol = scratch.boundary.tolerance;
+  const double interior = interior_pattern_angle(topo, rest, p);
+  const Vec2 next_edge = rest[topo.boundary_next[p]] - pp;
+  for (int32_t i = 0; i < n; ++i) {
+    LoadRay& r = out.rays[i];
+    if (r.reachable)
+      r.wedge_angle = wedge_angle(out.paths, out.paths.paths[i], topo, rest, p, interior, tol,
+                                  params.paths.angle_tolerance);
+  }
   Vec2 b = interior_bisector(topo, rest, p);
   auto split = [&](const Vec2& line) {
+    const double beta = ccw_angle(next_edge, line);
+    const bool inside = beta > 0 && beta < interior;
     bool changed = false;
     for (int32_t i = 0; i < n; ++i) {
       LoadRay& r = out.rays[i];
-      const int32_t side = r.reachable ? path_side(out.paths, out.paths.paths[i], topo, rest, pp, line, tol) : 0;
+      int32_t side = 0;
+      if (r.reachable) {
+        // b outside the material (pulls from ahead): the plane's sides; t will not be valid anyway.
+        const double c = inside ? r.wedge_angle - beta : cross(line, r.direction);
+        side = c > 1e-12 ? 1 : (c < -1e-12 ? -1 : 0);
+      }
       changed |= side != r.side;
       r.side = side;
     }
@@ -185,8 +220,7 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
   out.direction = -sum / sum_norm;
 
   // Into the material as in propagation.cpp: strictly between the boundary directions at p.
-  const double interior = interior_pattern_angle(topo, rest, p);
-  const double at = ccw_angle(rest[topo.boundary_next[p]] - pp, out.direction);
+  const double at = ccw_angle(next_edge, out.direction);
   if (!(at > params.angle_tolerance && at < interior - params.angle_tolerance)) {
     out.status = TensionRaysStatus::NotIntoMaterial;
     return;

@@ -52,6 +52,7 @@ struct LoadRay {
   double weight = 0;               // w_j = ‖R_j‖
   double path_length = 0;          // m
   int32_t first_corner = -1;       // vertex the path first bends at, −1 when straight
+  double wedge_angle = 0;          // of g_j in p's interior angle, from the edge to boundary_next, rad
   int32_t side = 0;                // +1 left (cross(b, g) > 0), −1 right, 0 neither (see below)
   bool straight = false;
   bool reachable = false;          // a path was found (else the load point is not used)
@@ -83,9 +84,10 @@ struct TensionRaysScratch {
   std::vector<int32_t> side;
 };
 
-// Sides: a path leaving p along the split line itself (a finger on a lip, straight behind a slit's tip)
-// takes the side of its first point off the line, or else the side its target's material lies on (the
-// interior bisector at the target when it is a boundary vertex); neither side if that is still on it.
+// Sides: g_j is left of the split line b when it lies further counter-clockwise than b in p's interior
+// angle (measured from the edge to boundary_next): the sign of cross(b, g_j) while they are less than π
+// apart; a path leaving back along a lip (a finger on a lip, a path round a tear's kink) stays on that
+// lip's side. Directions exactly along b are on neither side.
 // The tension rays at boundary vertex p (a tear tip or a start point) for `loads` (only those on p's
 // piece count). Invalid (status says why; the caller falls back to the J-vector of
 // systems/material_force.hpp) when a side is empty, u_L + u_R ≈ 0, or t does not point into the
