@@ -40,7 +40,7 @@ struct TensionRaysParams {
 enum class TensionRaysStatus : uint8_t {
   Valid = 0,
   NotBoundary,      // p out of range or not a boundary vertex
-  EmptySide,        // fewer than one load point on a side
+  EmptySide,        // no load point on one of the two sides
   Opposite,         // u_L + u_R ≈ 0: in-plane pulls from opposite sides (θ ≈ π)
   NotIntoMaterial,  // t not strictly inside p's interior angle
 };
@@ -81,13 +81,13 @@ struct TensionRaysScratch {
   PatternBoundary boundary;
   PatternPathScratch paths;
   std::vector<int32_t> targets;
-  std::vector<int32_t> side;
 };
 
 // Sides: g_j is left of the split line b when it lies further counter-clockwise than b in p's interior
 // angle (measured from the edge to boundary_next): the sign of cross(b, g_j) while they are less than π
 // apart; a path leaving back along a lip (a finger on a lip, a path round a tear's kink) stays on that
 // lip's side. Directions exactly along b are on neither side.
+//
 // The tension rays at boundary vertex p (a tear tip or a start point) for `loads` (only those on p's
 // piece count). Invalid (status says why; the caller falls back to the J-vector of
 // systems/material_force.hpp) when a side is empty, u_L + u_R ≈ 0, or t does not point into the
