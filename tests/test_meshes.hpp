@@ -4,9 +4,11 @@
 #include "components/sheet.hpp"
 #include "systems/topology.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <vector>
 
 namespace pt::test {
 
@@ -104,6 +106,73 @@ inline Sheet fan_sheet(const std::vector<double>& ring_deg) {
   for (int32_t i = 0; i + 1 < n; ++i) s.tris.tri[i] = Tri{0, i + 1, i + 2};
   refresh_after_topology_change(s);
   return s;
+}
+
+// A W x H rectangle as an nx x ny grid (alternating diagonals) with vertical slits cut from the bottom
+// edge, as a tear leaves them: slit (i, k) runs along grid column i from row 0 to row k, the vertices
+// below row k are duplicated (the copies belong to the cells on the slit's right), so each lip is a
+// boundary edge chain and the tip (column i, row k) is one vertex with an interior angle of 2π. k = ny
+// cuts the sheet in two pieces. Columns of different slits must differ and lie strictly inside.
+struct Slit {
+  int i = 0, k = 0;
+};
+inline Sheet slit_grid(double W, double H, int nx, int ny, const std::vector<Slit>& slits) {
+  Sheet s;
+  auto id = [&](int i, int j) { return j * (nx + 1) + i; };
+  std::vector<int32_t> copy((nx + 1) * (ny + 1), -1);
+  int32_t count = (nx + 1) * (ny + 1);
+  for (const Slit& sl : slits)
+    for (int j = 0; j <= std::min(sl.k == ny ? ny : sl.k - 1, ny); ++j) copy[id(sl.i, j)] = count++;
+  s.verts.resize(count);
+  for (int j = 0; j <= ny; ++j)
+    for (int i = 0; i <= nx; ++i) {
+      const Vec2 p(W * i / nx, H * j / ny);
+      s.verts.rest[id(i, j)] = p;
+      if (copy[id(i, j)] >= 0) s.verts.rest[copy[id(i, j)]] = p;
+    }
+  for (int32_t v = 0; v < count; ++v) s.verts.x[v] = flat(s.verts.rest[v]);
+  auto corner = [&](int ci, int i, int j) {
+    // Cells in the column right of a slit take the copies.
+    const int32_t v = id(i, j);
+    for (const Slit& sl : slits)
+      if (ci == sl.i && i == sl.i && copy[v] >= 0) return copy[v];
+    return v;
+  };
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const int32_t a = corner(i, i, j), b = corner(i, i + 1, j), c = corner(i, i + 1, j + 1), d = corner(i, i, j + 1);
+      if ((i + j) % 2 == 0) {
+        s.tris.tri.push_back({a, b, c});
+        s.tris.tri.push_back({a, c, d});
+      } else {
+        s.tris.tri.push_back({a, b, d});
+        s.tris.tri.push_back({b, c, d});
+      }
+    }
+  s.tris.resize(static_cast<int32_t>(s.tris.tri.size()));
+  refresh_after_topology_change(s);
+  return s;
+}
+
+// The vertex at pattern position `at` whose fan has a triangle with its centroid toward `toward` from
+// `at` (of the copies of a slit's lip vertex: the one on that side); −1 if none.
+inline int32_t vertex_at(const Sheet& s, const Vec2& at, const Vec2& toward = Vec2::Zero()) {
+  int32_t best = -1;
+  double best_dot = -1e300;
+  for (int32_t v = 0; v < s.verts.size(); ++v) {
+    if ((s.verts.rest[v] - at).norm() > 1e-12) continue;
+    double dot = -1e300;
+    for (const int32_t t : s.topo.fan(v)) {
+      const Tri& c = s.tris.tri[t];
+      const Vec2 centroid = (s.verts.rest[c[0]] + s.verts.rest[c[1]] + s.verts.rest[c[2]]) / 3;
+      dot = std::max(dot, (centroid - at).dot(toward));
+    }
+    if (best < 0 || dot > best_dot) {
+      best = v;
+      best_dot = dot;
+    }
+  }
+  return best;
 }
 
 }  // namespace pt::test
