@@ -38,8 +38,8 @@ Vec2 tip_direction(const std::vector<Tip>& tips, int32_t tear) {
 }
 
 bool tip_direction_allowed(const Vec2& previous, const Vec2& direction, double max_turn) {
-  // Written as the refusal so that a direction whose dot product is NaN is not refused here: the cut
-  // rejects it (as before the step was a system).
+  // Written as the refusal: a direction whose dot product is NaN is not refused here but left to the
+  // decision and the cut, which reject non-finite steps.
   return !(previous.squaredNorm() > 0 && previous.dot(direction) < std::cos(max_turn));
 }
 

@@ -49,7 +49,7 @@ struct TearingParams {
   MembraneParams membrane;             // the energy whose material force is integrated (MaterialForce only)
   ClusterParams cluster;
   PropagationParams propagation;
-  RemeshParams remesh;                 // remesh.snap_fraction: snapping of the segment's end (DESIGN §5.5)
+  RemeshParams remesh;                 // the cut (paper §5.3); snap_fraction: snapping of the segment's end
   TearRelaxation relaxation = TearRelaxation::AfterEachCut;
   bool delaunay_flips = false;         // Lawson flips around each cut (systems/mesh_quality.hpp)
   bool check_invariants = false;       // check_mesh_invariants after every cut, problems to the log
