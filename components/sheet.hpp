@@ -186,6 +186,14 @@ struct Tear {
   bool reached_boundary = false;
 };
 
+// What happened to a tear at a frame, in the order the tearing step did it (TearStarted or TearExtended
+// for each segment, then PieceSeparated when that segment split the sheet).
+struct TearEvent {
+  enum Kind { TearStarted, TearExtended, PieceSeparated } kind;
+  int32_t tear = -1;
+  int32_t frame = 0;
+};
+
 // The active tip of a tear: the vertex where it continues. Removed when the tear reaches the boundary.
 struct Tip {
   int32_t vertex = -1;

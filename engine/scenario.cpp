@@ -4,6 +4,7 @@
 #include "engine/scenario.hpp"
 
 #include "systems/meshing.hpp"
+#include "systems/tearing/tearing_step.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -544,8 +545,10 @@ void validate_scenario(const Scenario& s) {
          "absurd size " + fmt(s.sim.relaxation_radius) + " (at most " + fmt(kMaxCoordinate) + ")");
 
   // Tearing.
-  if (s.tearing.direction != "bisector" && s.tearing.direction != "material_force")
-    fail(file, "tearing.direction", "unknown direction \"" + s.tearing.direction + "\" (bisector or material_force)");
+  // The names the tearing step knows (systems/tearing/tearing_step.hpp): "fan" is the bisector's other name.
+  if (TearDirection d; !tear_direction_from_name(s.tearing.direction, d))
+    fail(file, "tearing.direction",
+         "unknown direction \"" + s.tearing.direction + "\" (bisector, fan or material_force)");
   check_positive(file, "tearing.radius", s.tearing.radius);
   if (s.tearing.radius > kMaxCoordinate)
     fail(file, "tearing.radius", "absurd size " + fmt(s.tearing.radius) + " (at most " + fmt(kMaxCoordinate) + ")");

@@ -26,8 +26,9 @@ struct DetailSettings {
 
 // How a tear tip picks its direction, and how its cuts snap (the "tearing" object; optional).
 struct TearingSettings {
-  std::string direction = "bisector";  // "bisector": eq. 4–6 (DESIGN §5.4); "material_force": the J-integral's
-                                       // direction of largest energy release (systems/material_force.hpp)
+  std::string direction = "bisector";  // "bisector" or "fan": eq. 4–6 (DESIGN §5.4); "material_force": the
+                                       // J-integral's direction of largest energy release
+                                       // (systems/material_force.hpp)
   double radius = 0.04;                // m, the J-integral's domain ("material_force" only)
   std::optional<double> snap;          // remeshing's snap fraction (DESIGN §5.5); unset: the direction's default
   double snap_fraction() const { return snap ? *snap : direction == "material_force" ? 0.06 : 0.25; }

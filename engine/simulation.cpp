@@ -8,20 +8,16 @@
 #include "systems/bending_forces.hpp"
 #include "systems/candidates.hpp"
 #include "systems/carving.hpp"
-#include "systems/clustering.hpp"
 #include "systems/fingers.hpp"
 #include "systems/physics/grip.hpp"
 #include "systems/integrate.hpp"
 #include "systems/integrate_implicit.hpp"
 #include "systems/local_relaxation.hpp"
-#include "systems/material_force.hpp"
 #include "systems/membrane_forces.hpp"
-#include "systems/propagation.hpp"
 #include "systems/regions.hpp"
 #include "systems/scoped_timer.hpp"
-#include "systems/mesh_quality.hpp"
-#include "systems/remeshing.hpp"
 #include "systems/topology.hpp"
+#include "systems/tearing/tearing_step.hpp"
 #include "systems/vertex_insertion.hpp"
 
 #include <oneapi/tbb/blocked_range.h>
@@ -35,7 +31,6 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
-#include <set>
 #include <stdexcept>
 
 namespace pt {
@@ -100,33 +95,21 @@ struct Simulation::Impl {
   std::vector<BendingStencil> bending;
   uint64_t bending_version = ~uint64_t{0};
   RegionParams region_params;
-  ClusterParams cluster_params;
-  PropagationParams propagation_params;
-  RemeshParams remesh_params;
-  bool material_force_direction = false;  // "tearing": {"direction": "material_force"}
+  TearingParams tearing_params;  // clustering, propagation, remeshing and direction of the tearing step
   // "sim": {"relaxation": ...}: an extra substep of the sheet, the next frame's physics, or a patch's substep.
   enum class Relaxation { Substep, NextFrame, Patch } relaxation = Relaxation::Substep;
   LocalRelaxationParams local_relaxation;
   LocalRelaxationScratch local_scratch;
   int64_t patch_failures = 0;  // patch relaxations the implicit step refused (reported with the solver's)
-  double driving_force_radius = 0.04;  // m
-  DrivingForceScratch driving_scratch;
-  std::vector<int32_t> singular_vertices;  // fingers and tips: kept out of a J-integral's domain
-  double max_tip_turn = 75.0 * 3.14159265358979323846 / 180.0;  // rad, largest turn of a tip per step
-  double shielding_radius = 0.01;  // m
+  TearingScratch tearing_scratch;
 
   // e, k and the step bounds of p_next = p + k·Er·t from the material (at start and on a live edit).
   void take_propagation_params(const Material& m) {
-    propagation_params.thickness = m.thickness;
-    propagation_params.speed = m.speed;
-    propagation_params.max_step = m.max_step;
-    propagation_params.min_step = std::min(m.min_step, m.max_step);
-  }
-
-  bool shielded(const Vec2& uv) const {
-    for (const Tip& t : sheet.tips)
-      if ((sheet.verts.rest[t.vertex] - uv).norm() < shielding_radius) return true;
-    return false;
+    PropagationParams& p = tearing_params.propagation;
+    p.thickness = m.thickness;
+    p.speed = m.speed;
+    p.max_step = m.max_step;
+    p.min_step = std::min(m.min_step, m.max_step);
   }
 
   int32_t frame = 0;
@@ -137,10 +120,8 @@ struct Simulation::Impl {
   FrameProfile profile;
   TimingReport timings;
   std::vector<FrameStats> stats;
-  std::vector<TearEvent> events;
   RegionSummary region_summary;
-  std::vector<std::string> violations;
-  int32_t remeshes = 0;
+  TearingLog tearing_log;  // events, invariant violations and the count of cuts
   double max_strain = 0;              // largest principal in-plane strain at the end of any frame so far
   std::vector<double> strain_slots;   // per kernel range, for it
 
@@ -178,13 +159,18 @@ struct Simulation::Impl {
     use_projective = scenario.sim.solver == "projective";
     membrane = membrane_params(m);
     take_propagation_params(m);
-    material_force_direction = scenario.tearing.direction == "material_force";
+    tear_direction_from_name(scenario.tearing.direction, tearing_params.direction);  // validated
+    tearing_params.membrane = membrane;
     relaxation = scenario.sim.relaxation == "next_frame" ? Relaxation::NextFrame
                  : scenario.sim.relaxation == "patch"    ? Relaxation::Patch  // validated: implicit solver only
                                                          : Relaxation::Substep;
+    tearing_params.relaxation =
+        relaxation == Relaxation::NextFrame ? TearRelaxation::NextFrame : TearRelaxation::AfterEachCut;
+    tearing_params.delaunay_flips = options.delaunay_flips;
+    tearing_params.check_invariants = options.check_invariants;
     local_relaxation.radius = scenario.sim.relaxation_radius;
-    driving_force_radius = scenario.tearing.radius;
-    remesh_params.snap_fraction = scenario.tearing.snap_fraction();
+    tearing_params.driving_force_radius = scenario.tearing.radius;
+    tearing_params.remesh.snap_fraction = scenario.tearing.snap_fraction();
 
     update_finger_targets(0.0, sheet.hands, sheet.fingers);
     for (Finger& f : sheet.fingers) f.reaction.setZero();
@@ -340,155 +326,37 @@ struct Simulation::Impl {
                     sheet.material, fiber, candidates, fiber_cache);
   }
 
-  void refresh_role_flags() {
-    for (uint8_t& f : sheet.verts.flags) f &= static_cast<uint8_t>(~(kFinger | kTip));
-    for (const Finger& f : sheet.fingers)
-      if (f.vertex >= 0) sheet.verts.flags[f.vertex] |= kFinger;
-    for (const Tip& t : sheet.tips) sheet.verts.flags[t.vertex] |= kTip;
+  void refresh_role_flags() { pt::refresh_role_flags(sheet.fingers, sheet.tips, sheet.verts.flags); }
+
+  // Fig. 4 step 4 after a cut: an extra substep of the whole sheet or a substep of the patch around the
+  // tear's path, then the forces of the relaxed state for the next point's clustering.
+  void relax_after_cut(int32_t tear_id) {
+    if (relaxation == Relaxation::Patch) {
+      std::vector<int32_t> held;
+      std::vector<Vec3> target;
+      held_vertices(1.0, held, target);
+      if (!relax_patch_after_cut(implicit_params, local_relaxation, sheet.tears[tear_id].tips, held, target,
+                                 local_scratch, sheet)
+               .relaxed)
+        ++patch_failures;
+    } else {
+      substep(1.0);
+    }
+    compute_forces();
   }
 
-  // Paper Fig. 4 steps 2–4 for each potential tearing point in turn: clustering, propagation,
-  // remeshing, then one relaxation step so the lips move apart before the next point is treated.
+  // Paper Fig. 4 steps 2–4 for each potential tearing point in turn (systems/tearing/tearing_step.hpp).
   void run_tearing() {
-    std::set<std::pair<double, double>> visited;  // pattern positions already treated this frame
-    std::set<int32_t> extended;                   // tears already propagated this frame
-    size_t index = 0;
-    int32_t propagations = 0;
-    const int32_t max_propagations = 64;  // a frame's budget: every propagation re-lists the candidates
-    while (index < candidates.size() && propagations < max_propagations) {
-      const Candidate c = candidates[index++];
-      const Vec2 uv = sheet.verts.rest[c.vertex];
-      if (!visited.insert({uv.x(), uv.y()}).second) continue;
-      if (c.tear >= 0 && extended.count(c.tear)) continue;
-      // Crack shielding: an active tip releases the stress around it, so no new tear starts within
-      // shielding_radius of one (otherwise the lips right behind a tip, loaded by the same stress
-      // field but discretised coarsely, spawn spurious branches every frame).
-      if (c.tear < 0 && c.kind != StartKind::Finger && shielded(uv)) continue;
-
-      ForceClusters clusters;
-      PropagationDecision decision;
-      {
-        ScopedTimer timer(profile.clustering);
-        // Er ≤ Σ‖f_k‖ / e: a candidate that cannot reach Griffith's threshold is not clustered (its decision
-        // would be "no" anyway; NaN forces are skipped too, as the decision would refuse them).
-        if (!(fan_force_sum(sheet.tris, sheet.topo, c.vertex) / propagation_params.thickness >= c.fracture_energy))
-          continue;
-        if (!cluster_tip_forces(sheet.verts, sheet.tris, sheet.topo, c.vertex, cluster_params, clusters)) continue;
-      }
-      {
-        ScopedTimer timer(profile.propagation);
-        PropagationParams params = propagation_params;
-        for (const Tip& t : sheet.tips)
-          if (c.tear >= 0 && t.tear == c.tear) params.previous_direction = t.direction;
-        decision = decide_propagation(clusters, sheet.topo, sheet.verts.rest, c.vertex, c.fracture_energy, params);
-        // With "material_force", t is the direction of the crack driving force (the J-integral over the
-        // tip's surroundings) rather than the bisector of its fan's two clusters. Er and Griffith's test do
-        // not depend on t, so only a point that passes them pays for the domain integral. Not for a tear
-        // starting at a finger: the finger's point load is itself a singularity of the domain integral.
-        if (material_force_direction && decision.griffith && !(c.tear < 0 && c.kind == StartKind::Finger)) {
-          singular_vertices.clear();
-          for (const Finger& f : sheet.fingers) singular_vertices.push_back(f.vertex);
-          for (const Tip& t : sheet.tips) singular_vertices.push_back(t.vertex);
-          const double radius = domain_radius(sheet.verts.rest, c.vertex, singular_vertices, driving_force_radius);
-          const DrivingForce force =
-              crack_driving_force(sheet.verts, sheet.tris, sheet.topo, c.vertex, radius, membrane, driving_scratch);
-          if (force.j.squaredNorm() > 0) {
-            params.driving_direction = force.j.normalized();
-            decision = decide_propagation(clusters, sheet.topo, sheet.verts.rest, c.vertex, c.fracture_energy, params);
-          }
-        }
-      }
-      if (!decision.propagate) continue;
-      // A tip cannot run back into its own lips: at a tear tip the interior angle is ~2π, so the
-      // "into the material" test alone would accept directions that fold the tear back on itself
-      // (they appear when φ ≈ π and the bisector is ill-conditioned).
-      if (c.tear >= 0) {
-        Vec2 previous = Vec2::Zero();
-        for (const Tip& t : sheet.tips)
-          if (t.tear == c.tear) previous = t.direction;
-        if (previous.squaredNorm() > 0 && previous.dot(decision.direction) < std::cos(max_tip_turn)) continue;
-      }
-
-      CutResult cut;
-      int32_t tear_id = c.tear;
-      {
-        ScopedTimer timer(profile.remeshing);
-        Vec2 previous = Vec2::Zero();
-        bool new_tear = tear_id < 0;
-        if (new_tear) {
-          tear_id = static_cast<int32_t>(sheet.tears.size());
-        } else {
-          for (const Tip& t : sheet.tips)
-            if (t.tear == tear_id) previous = t.direction;
-        }
-        const int32_t parent = new_tear ? sheet.verts.tear[c.vertex] : -1;
-        const int32_t pieces_before = sheet.topo.piece_count;
-        const double area_before = options.check_invariants ? total_rest_area(sheet.tris) : -1.0;
-        cut = cut_tear_segment(c.vertex, decision.next, previous, tear_id, remesh_params, sheet);
-        if (!cut.cut) continue;
-        if (options.delaunay_flips) flip_towards_delaunay_near_new_vertices(FlipParams{}, sheet);
-        ++remeshes;
-        if (options.check_invariants) {
-          const std::string problem = check_mesh_invariants(sheet, area_before);
-          if (!problem.empty())
-            violations.push_back("frame " + std::to_string(frame) + ", tear " + std::to_string(tear_id) + ": " + problem);
-        }
-        if (new_tear) {
-          Tear t;
-          t.id = tear_id;
-          t.parent = parent;
-          t.start_kind = c.kind;
-          t.start_frame = frame;
-          t.start_uv = uv;
-          t.tips.push_back(uv);
-          sheet.tears.push_back(t);
-          events.push_back({TearEvent::TearStarted, tear_id, frame});
-        } else {
-          events.push_back({TearEvent::TearExtended, tear_id, frame});
-        }
-        Tear& tear = sheet.tears[tear_id];
-        tear.tips.push_back(cut.end);
-        const Vec2 d = cut.end - uv;
-        const Vec2 dir = d.norm() > 0 ? Vec2(d / d.norm()) : Vec2::Zero();
-        sheet.tips.erase(std::remove_if(sheet.tips.begin(), sheet.tips.end(),
-                                        [&](const Tip& t) { return t.tear == tear_id; }),
-                         sheet.tips.end());
-        if (cut.reached_boundary) {
-          tear.reached_boundary = true;
-        } else {
-          sheet.tips.push_back(Tip{cut.tip_vertex, tear_id, dir});
-        }
-        if (sheet.topo.piece_count > pieces_before) events.push_back({TearEvent::PieceSeparated, tear_id, frame});
-        refresh_role_flags();
-        extended.insert(tear_id);
-      }
-      if (relaxation == Relaxation::NextFrame) {
-        // The next frame's physics is this propagation's relaxation, and no other point propagates before
-        // it. The forces and candidates are brought to the new mesh (ids changed) for what reads them.
-        run_forces();
-        run_candidates();
-        break;
-      }
-      {
-        ScopedTimer timer(profile.relaxation);
-        if (relaxation == Relaxation::Patch) {
-          std::vector<int32_t> held;
-          std::vector<Vec3> target;
-          held_vertices(1.0, held, target);
-          if (!relax_patch_after_cut(implicit_params, local_relaxation, sheet.tears[tear_id].tips, held, target,
-                                     local_scratch, sheet)
-                   .relaxed)
-            ++patch_failures;
-        } else {
-          substep(1.0);
-        }
-        compute_forces();
-      }
-      // Vertex ids changed: find the candidates again and go on with the ones not yet treated.
-      run_candidates();
-      index = 0;
-      ++propagations;
-    }
+    TearingHooks hooks;
+    hooks.relax = [this](int32_t tear_id) { relax_after_cut(tear_id); };
+    hooks.update_forces = [this] { run_forces(); };
+    hooks.list_candidates = [this] { run_candidates(); };
+    TearingTimes times;
+    run_tearing_step(tearing_params, hooks, candidates, frame, sheet, tearing_log, times, tearing_scratch);
+    profile.clustering += times.clustering;
+    profile.propagation += times.propagation;
+    profile.remeshing += times.remeshing;
+    profile.relaxation += times.relaxation;
   }
 
   void run_carving() {
@@ -581,9 +449,9 @@ const CarveState& Simulation::carve_state() const { return impl_->carve_state; }
 const FrameProfile& Simulation::last_profile() const { return impl_->profile; }
 const TimingReport& Simulation::timings() const { return impl_->timings; }
 const std::vector<FrameStats>& Simulation::frame_stats() const { return impl_->stats; }
-const std::vector<TearEvent>& Simulation::events() const { return impl_->events; }
-const std::vector<std::string>& Simulation::invariant_violations() const { return impl_->violations; }
-int32_t Simulation::remesh_count() const { return impl_->remeshes; }
+const std::vector<TearEvent>& Simulation::events() const { return impl_->tearing_log.events; }
+const std::vector<std::string>& Simulation::invariant_violations() const { return impl_->tearing_log.violations; }
+int32_t Simulation::remesh_count() const { return impl_->tearing_log.remeshes; }
 double Simulation::max_strain() const { return impl_->max_strain; }
 size_t Simulation::solver_bytes() const { return impl_->implicit ? implicit_solver_bytes(*impl_->implicit) : 0; }
 ImplicitStats Simulation::solver_stats() const {

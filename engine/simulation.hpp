@@ -66,12 +66,6 @@ struct EngineOptions {
   bool delaunay_flips = false;
 };
 
-struct TearEvent {
-  enum Kind { TearStarted, TearExtended, PieceSeparated } kind;
-  int32_t tear = -1;
-  int32_t frame = 0;
-};
-
 class Simulation {
  public:
   // Builds the sheet (meshing, fingers, hands) and the frame graph. Throws InputError / GeometryError.
