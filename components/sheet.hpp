@@ -37,8 +37,8 @@ struct Material {
   // strain_limit, and young beyond it (docs/physics.md, "Membrane"): a coarse mesh of constant-strain
   // triangles cannot bend isometrically, and at paper's full stiffness the strains that locking leaves
   // (1e-4 .. 5e-3) would carry tens of newtons where paper carries millinewtons.
-  double membrane_scale = 0.01;
-  double strain_limit = 0.01;
+  double membrane_scale = 0.03;
+  double strain_limit = 0.02;
   double damping = 2.0;        // 1/s, mass-proportional velocity damping
   double tip_damage = 0.15;    // D of eq. 3, in [0,1]: a tip tears ~7x more easily than fresh paper
   uint64_t fiber_seed = 1;     // seed of T_fiber

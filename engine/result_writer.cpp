@@ -249,6 +249,7 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out) {
   ojson fingers = ojson::array();
   for (const Finger& f : sheet.fingers)
     fingers.push_back(ojson{{"name", f.name}, {"uv", num.uv(f.uv)}, {"max_force", num(f.max_force)},
+                             {"force", num(f.reaction.norm())},
                              {"slips", f.slips}, {"let_go", f.let_go}});
   result["fingers"] = std::move(fingers);
   result["max_strain"] = num(sim.max_strain());

@@ -26,12 +26,13 @@ struct DetailSettings {
 
 // How a tear tip picks its direction, and how its cuts snap (the "tearing" object; optional).
 struct TearingSettings {
-  std::string direction = "bisector";  // "bisector" or "fan": eq. 4–6 (DESIGN §5.4); "material_force": the
-                                       // J-integral's direction of largest energy release
-                                       // (systems/material_force.hpp)
-  double radius = 0.04;                // m, the J-integral's domain ("material_force" only)
-  std::optional<double> snap;          // remeshing's snap fraction (DESIGN §5.5); unset: the direction's default
-  double snap_fraction() const { return snap ? *snap : direction == "material_force" ? 0.06 : 0.25; }
+  // "tension_rays" (default): the load points' shortest paths in the torn pattern and their reactions
+  // (docs/tearing.md); "fan" (alias "bisector"): eq. 4–6 on the tip's fan, the paper's literal rule;
+  // "material_force": the J-integral's direction of largest energy release, Er from the fan.
+  std::string direction = "tension_rays";
+  double radius = 0.04;                // m, the J-integral's domain ("material_force", and the rays' fallback)
+  std::optional<double> snap;          // remeshing's snap fraction of an edge; unset: the direction's default
+  double snap_fraction() const { return snap ? *snap : direction == "bisector" || direction == "fan" ? 0.25 : 0.06; }
 };
 
 struct SimSettings {

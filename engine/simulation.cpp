@@ -170,6 +170,8 @@ struct Simulation::Impl {
     tearing_params.check_invariants = options.check_invariants;
     local_relaxation.radius = scenario.sim.relaxation_radius;
     tearing_params.driving_force_radius = scenario.tearing.radius;
+    tearing_params.rays.driving_force_radius = scenario.tearing.radius;
+    tearing_params.quasi_static = tearing_params.direction == TearDirection::TensionRays;
     tearing_params.remesh.snap_fraction = scenario.tearing.snap_fraction();
 
     update_finger_targets(0.0, sheet.hands, sheet.fingers);
@@ -331,6 +333,11 @@ struct Simulation::Impl {
   // Fig. 4 step 4 after a cut: an extra substep of the whole sheet or a substep of the patch around the
   // tear's path, then the forces of the relaxed state for the next point's clustering.
   void relax_after_cut(int32_t tear_id) {
+    // A slipping finger holds again where it is: its drag is the grip whatever the tear did, and the cut
+    // may have relieved the pull (otherwise a tip would run on a constant force until the next frame).
+    hold_points.clear();
+    for (const Finger& f : sheet.fingers) hold_points.push_back(f.target);
+    if (regrip_slipping_fingers(sheet.verts, hold_points, sheet.fingers)) refresh_role_flags();
     if (relaxation == Relaxation::Patch) {
       std::vector<int32_t> held;
       std::vector<Vec3> target;

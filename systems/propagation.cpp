@@ -54,6 +54,20 @@ bool bisector_direction(const Vec2& ul, const Vec2& ur, const PropagationParams&
 
 }  // namespace
 
+bool direction_into_material(const Topology& topo, const std::vector<Vec2>& rest, int32_t p, const Vec2& t,
+                             double tolerance) {
+  if (p < 0 || p >= static_cast<int32_t>(topo.boundary_next.size()) || topo.boundary_next[p] < 0) return false;
+  const double interior = interior_pattern_angle(topo, rest, p);
+  if (!(interior > 0)) return false;
+  const double at = ccw_angle(rest[topo.boundary_next[p]] - rest[p], t);
+  return at > tolerance && at < interior - tolerance;
+}
+
+Vec2 next_tip_position(const Vec2& p, const Vec2& t, double energy_release, const PropagationParams& params) {
+  const double step = std::max(std::min(params.speed * energy_release, params.max_step), params.min_step);
+  return p + step * t;
+}
+
 PropagationDecision decide_propagation(const ForceClusters& clusters, const Topology& topo,
                                        const std::vector<Vec2>& rest, int32_t p, double fracture_energy,
                                        const PropagationParams& params) {
@@ -90,17 +104,11 @@ PropagationDecision decide_propagation(const ForceClusters& clusters, const Topo
   // Into the material: t strictly between the boundary directions to next and to prev, measured
   // counter-clockwise from next (the sheet is on the left of prev → p → next), which also covers
   // reflex interior angles (> π) such as a tear tip.
-  const double interior = interior_pattern_angle(topo, rest, p);
-  if (interior > 0) {
-    const double at = ccw_angle(rest[topo.boundary_next[p]] - rest[p], d.direction);
-    d.into_material = at > params.angle_tolerance && at < interior - params.angle_tolerance;
-  }
+  d.into_material = direction_into_material(topo, rest, p, d.direction, params.angle_tolerance);
 
   d.propagate = d.griffith && d.into_material;
   if (d.propagate) {
-    // p_next = p + k · Er · t (§5.2), capped, and not shorter than min_step (slivers).
-    const double step = std::max(std::min(params.speed * d.energy_release, params.max_step), params.min_step);
-    d.next = rest[p] + step * d.direction;
+    d.next = next_tip_position(rest[p], d.direction, d.energy_release, params);
     if (!finite(d.next)) {
       d.propagate = false;
       d.next = Vec2::Zero();

@@ -38,6 +38,14 @@ struct PropagationDecision {
 // the driving direction is not finite, or, for the bisector, when the pre-images are opposite (φ ≈ π,
 // flat in-plane pull).
 // `next` is not clipped to the sheet: a segment that leaves it is ended on the boundary by remeshing.
+// t strictly inside the interior angle at boundary vertex p in the pattern (measured counter-clockwise from
+// the direction to boundary_next; reflex angles such as a tear tip's included), `tolerance` rad from its edges.
+bool direction_into_material(const Topology& topo, const std::vector<Vec2>& rest, int32_t p, const Vec2& t,
+                             double tolerance);
+
+// p_next = p + k · Er · t (§5.2), the step capped at max_step and lengthened to min_step (slivers).
+Vec2 next_tip_position(const Vec2& p, const Vec2& t, double energy_release, const PropagationParams& params);
+
 PropagationDecision decide_propagation(const ForceClusters& clusters, const Topology& topo,
                                        const std::vector<Vec2>& rest, int32_t p, double fracture_energy,
                                        const PropagationParams& params);

@@ -148,7 +148,9 @@ struct EnergyRun {
 
 EnergyRun run_energy(int mode, int iterations) {
   Sheet s = make_grid(0.1, 0.1, 8, 8, 0.2, 3);
-  s.material.strain_limit = 1e9;  // projective dynamics has no strain-limit term: the energy it minimises
+  // Projective dynamics has no strain-limit term, and these bounds are for paper's full in-plane modulus.
+  s.material.strain_limit = 1e9;
+  s.material.membrane_scale = 1;
   std::vector<BendingStencil> st;
   build_bending_stencils(s.verts.rest, s.topo.hinges, bending_stiffness(s.material), st);
   deform(s, mode);

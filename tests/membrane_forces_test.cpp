@@ -133,10 +133,11 @@ TEST(MembraneForces, StrainLimitStiffensPastTheLimit) {
     compute_membrane_forces(o.x, o.tri, o.rest_inv, o.rest_area, params, 0, 1, cf);
     return cf[0][1].x();
   };
-  const double below = stress_at(0.005), at = stress_at(params.strain_limit), past = stress_at(0.02);
+  const double limit = params.strain_limit;
+  const double below = stress_at(0.5 * limit), at = stress_at(limit), past = stress_at(1.5 * limit);
   EXPECT_NEAR(below / at, 0.5, 1e-6);  // linear below the limit
   // Past it the slope is the full modulus: (past − at) / (at / ε_lim · Δε) = (μ + μ_lim) / μ.
-  const double slope_ratio = (past - at) / (at / params.strain_limit * (0.02 - params.strain_limit));
+  const double slope_ratio = (past - at) / (at / limit * (0.5 * limit));
   const double expected = 1 + params.limit_mu * 2 / (2 * params.mu + params.lambda);
   EXPECT_NEAR(slope_ratio, expected, 0.02 * expected);
 }

@@ -468,14 +468,14 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
   const Scenario fig14_inplane = load_scenario(scenario_path("fig14-inplane.json"));
   const Scenario fig15 = load_scenario(scenario_path("fig15-curved.json"));
   const Scenario fig16 = load_scenario(scenario_path("fig16-zigzag.json"));
-  for (const char* direction : {"bisector", "material_force"}) {
+  for (const char* direction : {"fan", "material_force", "tension_rays"}) {
     std::vector<double> mediator, fig14_tears, inplane, inplane_3cm, hyperbola, hyperbola_2x, zigzag, fig16_tears;
     // Per-step errors against O'Keefe's direction (degrees), all steps of all meshes.
     std::vector<double> step_fig14, step_inplane, step_fig15, steps_fig14;
     auto append_degrees = [](const std::vector<double>& errors, std::vector<double>& all) {
       for (double e : errors) all.push_back(e * 180 / std::numbers::pi);
     };
-    size_t violations = 0, refused = 0;  // DESIGN §5.5 invariants broken, substeps the solver refused
+    size_t violations = 0, refused = 0, untorn = 0;  // DESIGN §5.5 invariants broken, substeps the solver refused
     auto tally = [&](const ScenarioRun& r) {
       violations += r.sim->invariant_violations().size();
       refused += static_cast<size_t>(r.sim->solver_stats().failures);
@@ -490,32 +490,32 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
         if (relaxation) s.sim.relaxation = relaxation;
         return s;
       };
-      {
+      do {
         const Scenario s = remeshed(fig14);
         ScenarioRun r = run_scenario(s);
-        ASSERT_FALSE(r.sheet().tears.empty());
+        if (r.sheet().tears.empty()) { ++untorn; break; }
         tally(r);
         mediator.push_back(100 * mediator_error(s, r.sheet()));
         fig14_tears.push_back(static_cast<double>(r.sheet().tears.size()));
         const std::vector<double> errors = okeefe_step_errors(s, r.sheet());
         append_degrees(errors, step_fig14);
         steps_fig14.push_back(static_cast<double>(errors.size()));
-      }
-      {
+      } while (false);
+      do {
         const Scenario s = remeshed(fig14_inplane);
         ScenarioRun r = run_scenario(s);
-        ASSERT_FALSE(r.sheet().tears.empty());
+        if (r.sheet().tears.empty()) { ++untorn; break; }
         tally(r);
         inplane.push_back(100 * mediator_error(s, r.sheet()));
         inplane_3cm.push_back(100 * mediator_error(s, r.sheet(), 0.03));
         append_degrees(okeefe_step_errors(s, r.sheet()), step_inplane);
-      }
+      } while (false);
       for (const double cap : {1.0, 2.0}) {
         Scenario s = remeshed(fig15);
         s.material.max_step *= cap;
         const Vec2 a = finger_uv(s, "A"), b = finger_uv(s, "B");
         ScenarioRun r = run_scenario(s);
-        ASSERT_FALSE(r.sheet().tears.empty());
+        if (r.sheet().tears.empty()) { ++untorn; break; }
         const std::vector<Vec2>& tips = r.sheet().tears[0].tips;
         const double d0 = (tips[0] - a).norm() - (tips[0] - b).norm();
         double worst = 0;
@@ -524,15 +524,19 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
         (cap == 1.0 ? hyperbola : hyperbola_2x).push_back(100 * worst / (a - b).norm());
         if (cap == 1.0) append_degrees(okeefe_step_errors(s, r.sheet()), step_fig15);
       }
-      {
+      do {
         ScenarioRun r = run_scenario(remeshed(fig16));
-        ASSERT_FALSE(r.sheet().tears.empty());
+        if (r.sheet().tears.empty()) { ++untorn; break; }
         tally(r);
         zigzag.push_back(direction_changes(r.sheet().tears[0].tips, 0.2));
         fig16_tears.push_back(static_cast<double>(r.sheet().tears.size()));
-      }
+      } while (false);
     }
     auto print = [](const char* what, std::vector<double> v) {
+      if (v.empty()) {
+        std::printf("%-42s none\n", what);
+        return;
+      }
       std::sort(v.begin(), v.end());
       double mean = 0;
       for (double x : v) mean += x / v.size();
@@ -552,7 +556,8 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
     print("Fig. 14 step error vs O'Keefe, degrees", step_fig14);
     print("Fig. 14 in plane: the same", step_inplane);
     print("Fig. 15: the same", step_fig15);
-    std::printf("mesh invariant violations %zu, refused substeps %zu (80 runs)\n", violations, refused);
+    std::printf("mesh invariant violations %zu, refused substeps %zu, runs without a tear %zu (80 runs)\n", violations,
+                refused, untorn);
   }
 }
 

@@ -47,7 +47,7 @@ def main():
         settings = list(a.set) + ([f"sheet.triangles={n}"] if n else [])
         out = os.path.join(tmp, os.path.basename(f)[:-5] + (f"-{n}" if n else ""))
         return job, run(a.bin, f, settings, out)
-    print(f"{'scenario':<22} {'tri':>5} {'tears':>5} {'>3mm':>4} {'pieces':>6} {'peak N':>8} {'max_strain':>10} {'slips':>5} {'status':>6}")
+    print(f"{'scenario':<22} {'tri':>5} {'tears':>5} {'>3mm':>4} {'pieces':>6} {'peak N':>8} {'end N':>7} {'max_strain':>10} {'slips':>5} {'status':>6}")
     with concurrent.futures.ThreadPoolExecutor(a.jobs) as ex:
         for (f, n), r in ex.map(one, jobs):
             name = os.path.basename(f)[:-5]
@@ -57,10 +57,11 @@ def main():
             tears = r["tears"]
             long_tears = sum(1 for t in tears if tear_length(t) > 3e-3)
             peak = max((fi["max_force"] for fi in r["fingers"]), default=0)
+            end = max((fi.get("force", 0) for fi in r["fingers"]), default=0)
             slips = sum(fi.get("slips", 0) for fi in r["fingers"])
             strain = r.get("max_strain", float("nan"))
             print(f"{name:<22} {r['mesh']['triangles']:>5} {len(tears):>5} {long_tears:>4} {r['mesh']['pieces']:>6} "
-                  f"{peak:>8.3g} {strain:>10.3g} {slips:>5} {r['status']:>6}", flush=True)
+                  f"{peak:>8.3g} {end:>7.3g} {strain:>10.3g} {slips:>5} {r['status']:>6}", flush=True)
 
 
 if __name__ == "__main__":

@@ -208,9 +208,10 @@ void shortest_pattern_paths(const PatternBoundary& boundary, const Topology& top
   out.points.clear();
   out.point_vertex.clear();
   out.visibility_tests = 0;
-  if (source < 0 || source >= topo.vertex_count() || !is_boundary(topo, source)) return;
+  if (source < 0 || source >= topo.vertex_count()) return;
   const Vec2& ps = rest[source];
   auto boundary_or_none = [&](int32_t v) { return is_boundary(topo, v) ? v : -1; };
+  const int32_t source_vertex = boundary_or_none(source);  // an interior source (a finger) leaves in any direction
 
   // Straight segments first: when every target sees the source no graph is built.
   int32_t blocked = 0;
@@ -218,7 +219,7 @@ void shortest_pattern_paths(const PatternBoundary& boundary, const Topology& top
     const int32_t t = targets[i];
     if (t < 0 || t >= topo.vertex_count() || t == source) continue;
     ++out.visibility_tests;
-    if (segment_in_pattern(boundary, topo, rest, ps, source, rest[t], boundary_or_none(t), scratch.query)) {
+    if (segment_in_pattern(boundary, topo, rest, ps, source_vertex, rest[t], boundary_or_none(t), scratch.query)) {
       PatternPath& path = out.paths[i];
       path.reachable = path.straight = true;
       path.length = (rest[t] - ps).norm();
@@ -276,7 +277,9 @@ void shortest_pattern_paths(const PatternBoundary& boundary, const Topology& top
       if (corner && !tangent_at(topo, rest, vk, line, tol)) continue;
       if (u > 0 && !tangent_at(topo, rest, vu, line, tol)) continue;
       ++out.visibility_tests;
-      if (!segment_in_pattern(boundary, topo, rest, pu, vu, rest[vk], boundary_or_none(vk), scratch.query)) continue;
+      if (!segment_in_pattern(boundary, topo, rest, pu, u == 0 ? source_vertex : vu, rest[vk], boundary_or_none(vk),
+                              scratch.query))
+        continue;
       scratch.distance[k] = candidate;
       scratch.previous[k] = u;
     }

@@ -82,7 +82,8 @@ struct PatternPathScratch {
   std::vector<int32_t> chain;
 };
 
-// Shortest paths in `boundary`'s piece from boundary vertex `source` to each vertex of `targets`
+// Shortest paths in `boundary`'s piece from vertex `source` (a boundary vertex, or an interior one such as a
+// finger's) to each vertex of `targets`
 // (interior or boundary vertices of the same piece). Deterministic: nodes are taken in a fixed order
 // (source, targets, reflex vertices ascending) and ties go to the lower node. A target at the source's
 // position (another copy of it) is reached around the tear, never directly.

@@ -20,6 +20,10 @@ bool tear_direction_from_name(std::string_view name, TearDirection& out) {
     out = TearDirection::MaterialForce;
     return true;
   }
+  if (name == "tension_rays") {
+    out = TearDirection::TensionRays;
+    return true;
+  }
   return false;
 }
 
@@ -119,13 +123,19 @@ void refresh_role_flags(const std::vector<Finger>& fingers, const std::vector<Ti
 
 int32_t propagate_candidate(const TearingParams& params, const Candidate& c, int32_t frame, Sheet& sheet,
                             TearingLog& log, TearingTimes& times, TearingScratch& scratch) {
-  ForceClusters clusters;
-  {
-    ScopedTimer timer(times.clustering);
-    if (!cluster_candidate(params, c, sheet, clusters)) return -1;
-  }
   PropagationDecision decision;
-  {
+  if (params.direction == TearDirection::TensionRays) {
+    ScopedTimer timer(times.propagation);
+    PropagationParams prop = params.propagation;
+    if (c.tear >= 0) prop.previous_direction = tip_direction(sheet.tips, c.tear);
+    decision = decide_by_tension_rays(sheet, c.vertex, c.fracture_energy, c.tear < 0, prop, params.membrane,
+                                      params.rays, scratch.rays);
+  } else {
+    ForceClusters clusters;
+    {
+      ScopedTimer timer(times.clustering);
+      if (!cluster_candidate(params, c, sheet, clusters)) return -1;
+    }
     ScopedTimer timer(times.propagation);
     decision = decide_candidate_propagation(params, c, clusters, sheet, scratch);
   }
@@ -166,7 +176,7 @@ void run_tearing_step(const TearingParams& params, const TearingHooks& hooks, co
     const Candidate c = candidates[index++];  // a copy: list_candidates rewrites the list
     const Vec2 uv = sheet.verts.rest[c.vertex];
     if (!visited.insert({uv.x(), uv.y()}).second) continue;
-    if (c.tear >= 0 && extended.count(c.tear)) continue;
+    if (c.tear >= 0 && !params.quasi_static && extended.count(c.tear)) continue;
     // A finger's start is not shielded: the finger itself loads the sheet there.
     if (c.tear < 0 && c.kind != StartKind::Finger &&
         shielded_by_active_tip(sheet.verts.rest, sheet.tips, uv, params.shielding_radius))

@@ -12,6 +12,7 @@
 #include "systems/membrane_forces.hpp"
 #include "systems/propagation.hpp"
 #include "systems/remeshing.hpp"
+#include "systems/tearing/tension_ray_decision.hpp"
 
 #include <cstdint>
 #include <functional>
@@ -25,9 +26,12 @@ namespace pt {
 enum class TearDirection {
   Fan,            // eqs. 4–6: minus the bisector of the two force clusters of the tip's fan
   MaterialForce,  // the J-integral's direction of largest energy release (systems/material_force.hpp)
+  TensionRays,    // the load points' shortest paths in the pattern, Er from their reactions
+                  // (systems/tearing/tension_ray_decision.hpp)
 };
 
-// "bisector" and "fan" → Fan, "material_force" → MaterialForce. Returns false for any other name.
+// "bisector" and "fan" → Fan, "material_force" → MaterialForce, "tension_rays" → TensionRays. Returns false
+// for any other name.
 bool tear_direction_from_name(std::string_view name, TearDirection& out);
 
 // What relaxes the sheet after a propagation (Fig. 4 step 4).
@@ -53,6 +57,10 @@ struct TearingParams {
   TearRelaxation relaxation = TearRelaxation::AfterEachCut;
   bool delaunay_flips = false;         // Lawson flips around each cut (systems/mesh_quality.hpp)
   bool check_invariants = false;       // check_mesh_invariants after every cut, problems to the log
+  TensionRayDecisionParams rays;       // TensionRays only
+  // Quasi-static tearing: a tip advances again within the frame while Griffith's test holds after the
+  // relaxation, so the fingers never out-run the tear. Off: one segment per tear and frame.
+  bool quasi_static = false;
 };
 
 // The engine's services the step calls; a unit test passes its own. All are required.
@@ -80,6 +88,7 @@ struct TearingLog {
 
 // Per-sheet buffers the step reuses between calls.
 struct TearingScratch {
+  TensionRayDecisionScratch rays;
   DrivingForceScratch driving;
   std::vector<int32_t> singular_vertices;  // fingers and tips: kept out of a J-integral's domain
 };

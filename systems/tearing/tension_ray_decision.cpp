@@ -1,0 +1,73 @@
+#include "systems/tearing/tension_ray_decision.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace pt {
+
+double start_wrap_excess(const Sheet& sheet, const TensionRays& rays, std::span<const LoadPoint> loads,
+                         TensionRayDecisionScratch& scratch) {
+  double best = std::numeric_limits<double>::infinity();
+  const PatternBoundary& boundary = scratch.rays.boundary;  // p's piece, built by compute_tension_rays
+  for (const LoadRay& a : rays.rays) {
+    if (a.side != 1 || !a.reachable) continue;
+    scratch.targets.clear();
+    for (const LoadRay& b : rays.rays)
+      if (b.side == -1 && b.reachable) scratch.targets.push_back(loads[b.load].vertex);
+    if (scratch.targets.empty()) return best;
+    shortest_pattern_paths(boundary, sheet.topo, sheet.verts.rest, loads[a.load].vertex, scratch.targets,
+                           scratch.rays.paths, scratch.between);
+    size_t k = 0;
+    for (const LoadRay& b : rays.rays) {
+      if (b.side != -1 || !b.reachable) continue;
+      const PatternPath& ab = scratch.between.paths[k++];
+      if (ab.reachable) best = std::min(best, a.path_length + b.path_length - ab.length);
+    }
+  }
+  return best;
+}
+
+PropagationDecision decide_by_tension_rays(const Sheet& sheet, int32_t p, double fracture_energy, bool is_start,
+                                           const PropagationParams& propagation, const MembraneParams& membrane,
+                                           const TensionRayDecisionParams& params, TensionRayDecisionScratch& scratch) {
+  PropagationDecision d;
+  finger_load_points(sheet.fingers, scratch.loads);
+  TensionRays& rays = scratch.result;
+  TensionRaysParams rp = params.rays;
+  rp.thickness = propagation.thickness;
+  compute_tension_rays(sheet.verts.rest, sheet.tris.piece, sheet.topo, p, scratch.loads, rp, scratch.rays, rays);
+  if (rays.left_count == 0 || rays.right_count == 0) return d;
+  d.angle = rays.theta;
+  d.energy_release = (rays.left_force + rays.right_force) * std::cos(0.5 * rays.theta) / propagation.thickness;
+  d.griffith = std::isfinite(d.energy_release) && d.energy_release >= fracture_energy;
+  if (!d.griffith) return d;
+  if (is_start && !(start_wrap_excess(sheet, rays, scratch.loads, scratch) <= params.start_wrap)) {
+    d.griffith = false;
+    return d;
+  }
+  if (rays.valid) {
+    d.direction = rays.direction;
+  } else {
+    // The J-vector over the tip's surroundings, its domain kept clear of fingers and other tips.
+    scratch.singular.clear();
+    for (const Finger& f : sheet.fingers) scratch.singular.push_back(f.vertex);
+    for (const Tip& t : sheet.tips) scratch.singular.push_back(t.vertex);
+    const double radius = domain_radius(sheet.verts.rest, p, scratch.singular, params.driving_force_radius);
+    const DrivingForce force =
+        crack_driving_force(sheet.verts, sheet.tris, sheet.topo, p, radius, membrane, scratch.driving);
+    if (!(force.j.squaredNorm() > 0) || !force.j.allFinite()) return d;
+    d.direction = force.j.normalized();
+  }
+  d.into_material = direction_into_material(sheet.topo, sheet.verts.rest, p, d.direction, propagation.angle_tolerance);
+  d.propagate = d.into_material;
+  if (d.propagate) {
+    d.next = next_tip_position(sheet.verts.rest[p], d.direction, d.energy_release, propagation);
+    if (!d.next.allFinite()) {
+      d.propagate = false;
+      d.next = Vec2::Zero();
+    }
+  }
+  return d;
+}
+
+}  // namespace pt

@@ -1,0 +1,53 @@
+// Griffith's decision and the direction of a potential tearing point from its tension rays (docs/tearing.md):
+// the paper's two virtual fingers (§5.1, eqs. 4–6) taken as the load points of the piece, each pulling along
+// its shortest path in the torn pattern (systems/tearing/tension_rays.hpp), instead of the forces of the
+// point's own fan of triangles, which scale with the fan's size.
+//
+// - Er = (F_L + F_R) cos(θ/2) / e (eq. 6's form) with F_L, F_R the fingers' reactions on either side, so it
+//   does not depend on the mesh; Griffith (eq. 1): propagate iff Er ≥ Ef.
+// - t = −normalize(u_L + u_R), O'Keefe's bisector: for two fingers, the tangent of the hyperbola
+//   |PA| − |PB| = const. Where the rays give no direction into the material (one side empty, the pulls
+//   opposite, t out of the sheet) t is the crack driving force, the J-vector (systems/material_force.hpp).
+// - A tear starts only where the load between the two sides passes: a start point p must lie on a
+//   shortest path between a load point on its left and one on its right, within `start_wrap` (a physical
+//   length): d(A, p) + d(p, B) − d(A, B) ≤ start_wrap. The tension that joins two pulling fingers wraps
+//   around a notch's apex and is carried along a straight edge between them, but passes by a notch's flanks
+//   and a held corner; without this, every boundary point between two fingers would read the same Er.
+#pragma once
+
+#include "components/sheet.hpp"
+#include "systems/material_force.hpp"
+#include "systems/membrane_forces.hpp"
+#include "systems/propagation.hpp"
+#include "systems/tearing/tension_rays.hpp"
+
+namespace pt {
+
+struct TensionRayDecisionParams {
+  TensionRaysParams rays;
+  double start_wrap = 0.003;          // m: how far off the path between two loads a start may lie
+  double driving_force_radius = 0.04; // m, the J-vector's domain (fallback direction)
+};
+
+struct TensionRayDecisionScratch {
+  std::vector<LoadPoint> loads;
+  TensionRaysScratch rays;
+  TensionRays result;
+  PatternPaths between;        // shortest paths between the two sides' loads (the start test)
+  std::vector<int32_t> targets;
+  DrivingForceScratch driving;
+  std::vector<int32_t> singular;
+};
+
+// Why a start point is (not) on the load's path: the smallest d(A, p) + d(p, B) − d(A, B) over left loads
+// A and right loads B of the tension rays `rays` at p, m (infinity when no pair is connected).
+double start_wrap_excess(const Sheet& sheet, const TensionRays& rays, std::span<const LoadPoint> loads,
+                         TensionRayDecisionScratch& scratch);
+
+// The decision at candidate vertex p (Ef its fracture energy; `is_start`: p is not an active tip).
+// `previous` is the tip's last direction (zero for a start). `membrane` is the energy of the J-vector fallback.
+PropagationDecision decide_by_tension_rays(const Sheet& sheet, int32_t p, double fracture_energy, bool is_start,
+                                           const PropagationParams& propagation, const MembraneParams& membrane,
+                                           const TensionRayDecisionParams& params, TensionRayDecisionScratch& scratch);
+
+}  // namespace pt

@@ -1,0 +1,84 @@
+// Fingers that hold like fingers (systems/physics/grip.hpp): hard up to the grip, then the paper slides
+// through the pinch; checked on hand-made vertex states against the quasi-static balance.
+#include "systems/physics/grip.hpp"
+
+#include <gtest/gtest.h>
+
+using namespace pt;
+
+namespace {
+
+Vertices two_vertices() {
+  Vertices v;
+  v.resize(2);
+  v.mass = {1e-3, 1e-3};
+  v.x[1] = Vec3(0.1, 0, 0);
+  return v;
+}
+
+Finger finger_on(int32_t vertex, double grip) {
+  Finger f;
+  f.vertex = vertex;
+  f.grip = grip;
+  return f;
+}
+
+}  // namespace
+
+TEST(Grip, ReactionBalancesTheSheetAndGravity) {
+  Vertices v = two_vertices();
+  v.force[1] = Vec3(2, 0, 0);
+  const Vec3 g(0, 0, -9.81);
+  EXPECT_TRUE(held_reaction(v, g, 1).isApprox(Vec3(-2, 0, 1e-3 * 9.81)));
+}
+
+TEST(Grip, HoldsBelowTheGripAndSlipsAbove) {
+  Vertices v = two_vertices();
+  std::vector<Finger> fingers{finger_on(0, 15), finger_on(1, 15)};
+  v.force[0] = Vec3(10, 0, 0);  // needs 10 N: held
+  v.force[1] = Vec3(0, 20, 0);  // needs 20 N: more than the pinch holds
+  EXPECT_TRUE(check_grip(v, Vec3::Zero(), fingers));
+  EXPECT_FALSE(fingers[0].slipping);
+  EXPECT_EQ(fingers[0].slips, 0);
+  EXPECT_NEAR(fingers[0].reaction.norm(), 10, 1e-12);
+  EXPECT_NEAR(fingers[0].max_force, 10, 1e-12);
+  EXPECT_TRUE(fingers[1].slipping);
+  EXPECT_EQ(fingers[1].slips, 1);
+  // A sliding pinch applies its grip, along the pull.
+  EXPECT_TRUE(fingers[1].reaction.isApprox(Vec3(0, -15, 0)));
+  EXPECT_NEAR(fingers[1].max_force, 15, 1e-12);
+  // A slipping finger is not checked again until it holds again.
+  EXPECT_FALSE(check_grip(v, Vec3::Zero(), fingers));
+  EXPECT_EQ(fingers[1].slips, 1);
+}
+
+TEST(Grip, SlippingFingerDragsItsVertexWithTheGrip) {
+  Vertices v = two_vertices();
+  std::vector<Finger> fingers{finger_on(0, 15), finger_on(1, 12)};
+  fingers[1].slipping = true;
+  std::vector<Vec3> external;
+  slipping_drag(v, fingers, {Vec3::Zero(), Vec3(0.1, 0.03, 0.04)}, external);
+  ASSERT_EQ(external.size(), 2u);
+  EXPECT_EQ(external[0], Vec3::Zero());
+  EXPECT_TRUE(external[1].isApprox(Vec3(0, 12 * 0.6, 12 * 0.8)));
+  fingers[1].slipping = false;
+  slipping_drag(v, fingers, {Vec3::Zero(), Vec3::Zero()}, external);
+  EXPECT_TRUE(external.empty()) << "no drag when no finger slips";
+}
+
+TEST(Grip, RegripsWhereThePaperIsOrLetsGoPastItsReach) {
+  Vertices v = two_vertices();
+  std::vector<Finger> fingers{finger_on(0, 15), finger_on(1, 15)};
+  fingers[0].slipping = fingers[1].slipping = true;
+  // Finger 0's point is 5 mm from its vertex: it holds the vertex where it is, 5 mm off.
+  // Finger 1's is 3 cm away: the paper has slid out of the pinch.
+  const std::vector<Vec3> targets{Vec3(0.005, 0, 0), Vec3(0.1, 0.03, 0)};
+  EXPECT_TRUE(regrip_slipping_fingers(v, targets, fingers));
+  EXPECT_FALSE(fingers[0].slipping);
+  EXPECT_TRUE(fingers[0].hold_offset.isApprox(Vec3(-0.005, 0, 0)));
+  EXPECT_EQ(fingers[0].vertex, 0);
+  EXPECT_FALSE(fingers[0].let_go);
+  EXPECT_EQ(fingers[1].vertex, -1);
+  EXPECT_TRUE(fingers[1].released);
+  EXPECT_TRUE(fingers[1].let_go);
+}
