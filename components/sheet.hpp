@@ -226,9 +226,8 @@ struct Finger {
   double attach_time = 0;        // s: the finger is put on the sheet then (a vertex is inserted at uv)
   double release_time = 1e300;   // s: and lets go then
   bool released = false;
-  // A pinch holds up to its grip; beyond it the paper slides through the finger (systems/physics/grip.hpp):
-  // the finger drags its vertex with the grip force until the next frame, then holds it again where it
-  // is, hold_offset away from the finger's own point.
+  // A pinch holds up to its grip; beyond it the paper slides through the finger (systems/physics/grip.hpp)
+  // until the next frame, when it pinches again where the paper is, hold_offset away from its own point.
   double grip = 15;              // N, a firm pinch
   double reach = 0.02;           // m: the paper has slid out of the pinch once hold_offset is longer
   bool slipping = false;

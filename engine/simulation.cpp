@@ -114,7 +114,10 @@ struct Simulation::Impl {
 
   int32_t frame = 0;
   std::vector<Vec3> targets_begin;  // finger targets at the start of the frame
-  std::vector<Vec3> hold_points, drag;  // per finger, per vertex: scratch of the slipping fingers' drag
+  int32_t resume_substep = -1;     // the substep a frame stopped for tearing resumes at (stops_for_tearing)
+  std::vector<Vec3> hold_points;  // per finger: scratch of the pinches and the re-grip after a cut
+  // A slipping pinch pulls like this spring, its force capped at the grip: the grip within ~2 mm.
+  static constexpr double kPinchStiffness = 7500;  // N/m
   std::vector<Candidate> candidates;
   FiberSampleCache fiber_cache;  // T_fiber per vertex for the candidates' Ef
   FrameProfile profile;
@@ -209,7 +212,7 @@ struct Simulation::Impl {
     for (size_t i = 0; i < sheet.fingers.size(); ++i) {
       const Finger& f = sheet.fingers[i];
       if (f.vertex < 0) continue;
-      if (f.slipping) continue;  // dragged with its grip instead (slipping_drag)
+      if (f.slipping) continue;  // pulls through its pinch's spring instead (systems/physics/grip.hpp)
       held.push_back(f.vertex);
       target.push_back(hold_point(i, alpha));
     }
@@ -251,7 +254,9 @@ struct Simulation::Impl {
     update_finger_targets(time_at(frame + 1), sheet.hands, sheet.fingers);
   }
 
-  void substep(double alpha) {
+  // `may_slip`: a finger past its grip slips now; otherwise its reaction is only read (the frame is about
+  // to stop for the tearing step, which may relieve it).
+  void substep(double alpha, bool may_slip = true) {
     std::vector<int32_t> held;
     std::vector<Vec3> target;
     held_vertices(alpha, held, target);
@@ -262,18 +267,62 @@ struct Simulation::Impl {
     }
     hold_points.clear();
     for (size_t i = 0; i < sheet.fingers.size(); ++i) hold_points.push_back(hold_point(i, alpha));
-    slipping_drag(sheet.verts, sheet.fingers, hold_points, drag);
-    implicit_params.external_force = &drag;
+    slipping_pinches(sheet.verts, sheet.fingers, hold_points, kPinchStiffness, implicit_params.springs);
     // verts.force now holds the internal forces of the state this substep started from: the fingers'
     // reactions during it.
-    if (implicit_substep(implicit_params, held, target, implicit, sheet))
+    if (!implicit_substep(implicit_params, held, target, implicit, sheet)) return;
+    if (may_slip)
       check_grip(sheet.verts, scenario.sim.gravity, sheet.fingers);
+    else
+      read_reactions(sheet.verts, scenario.sim.gravity, sheet.fingers);
+  }
+
+  // An active tip that the tension rays would advance now (the candidates list the tips first).
+  bool tip_would_advance() {
+    for (const Candidate& c : candidates) {
+      if (c.tear < 0) break;
+      if (c.vertex >= sheet.verts.size()) continue;
+      const PropagationDecision d =
+          decide_by_tension_rays(sheet, c.vertex, c.fracture_energy, false, tearing_params.propagation, membrane,
+                                 tearing_params.rays, tearing_scratch.rays);
+      if (d.propagate) return true;
+    }
+    return false;
+  }
+
+  // Quasi-static tearing at the substeps' pace: the frame's physics stops at the first substep after which
+  // a finger holds more than its grip or a tip would advance, the tearing step runs on that state, and the
+  // frame's remaining substeps follow it (resume_substep). Fingers do not out-run the tear.
+  bool stops_for_tearing() const {
+    return tearing_params.direction == TearDirection::TensionRays && !use_projective &&
+           tearing_params.relaxation == TearRelaxation::AfterEachCut;
   }
 
   void run_physics() {
     ScopedTimer timer(profile.integrate);
     const int32_t n = scenario.sim.substeps;
-    for (int32_t s = 1; s <= n; ++s) substep(static_cast<double>(s) / n);
+    resume_substep = -1;
+    const bool may_stop = stops_for_tearing();
+    for (int32_t s = 1; s <= n; ++s) {
+      substep(static_cast<double>(s) / n, !may_stop || s == n);
+      if (may_stop && s < n && (grip_exceeded(sheet.fingers) || tip_would_advance())) {
+        resume_substep = s + 1;
+        return;
+      }
+    }
+  }
+
+  // The substeps of a frame its physics stopped early for.
+  void finish_physics() {
+    if (resume_substep < 0) return;
+    {
+      ScopedTimer timer(profile.integrate);
+      const int32_t n = scenario.sim.substeps;
+      for (int32_t s = resume_substep; s <= n; ++s) substep(static_cast<double>(s) / n);
+    }
+    resume_substep = -1;
+    ScopedTimer timer(profile.forces);
+    compute_forces();
   }
 
   // Membrane corner forces (kept for clustering), per-vertex sums and bending, then finger reactions.
@@ -301,12 +350,8 @@ struct Simulation::Impl {
     // A held vertex is in quasi-static balance: the finger supplies what the sheet and gravity do not.
     for (size_t i = 0; i < sheet.fingers.size(); ++i) {
       Finger& f = sheet.fingers[i];
-      if (f.vertex < 0) {
-        f.reaction.setZero();
-      } else if (f.slipping) {
-        const Vec3 d = hold_point(i, 1.0) - V.x[f.vertex];
-        f.reaction = d.norm() > 0 ? Vec3(f.grip * d.normalized()) : Vec3::Zero();
-      }
+      if (f.vertex < 0) f.reaction.setZero();
+      else if (f.slipping) f.reaction = slipping_pinch_force(V, f, hold_point(i, 1.0), kPinchStiffness);
     }
     check_grip(V, scenario.sim.gravity, sheet.fingers);
   }
@@ -333,8 +378,7 @@ struct Simulation::Impl {
   // Fig. 4 step 4 after a cut: an extra substep of the whole sheet or a substep of the patch around the
   // tear's path, then the forces of the relaxed state for the next point's clustering.
   void relax_after_cut(int32_t tear_id) {
-    // A slipping finger holds again where it is: its drag is the grip whatever the tear did, and the cut
-    // may have relieved the pull (otherwise a tip would run on a constant force until the next frame).
+    // A slipping finger holds again where it is: the cut may have relieved the pull that made it slip.
     hold_points.clear();
     for (const Finger& f : sheet.fingers) hold_points.push_back(f.target);
     if (regrip_slipping_fingers(sheet.verts, hold_points, sheet.fingers)) refresh_role_flags();
@@ -364,6 +408,7 @@ struct Simulation::Impl {
     profile.propagation += times.propagation;
     profile.remeshing += times.remeshing;
     profile.relaxation += times.relaxation;
+    finish_physics();
   }
 
   void run_carving() {

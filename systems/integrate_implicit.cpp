@@ -470,11 +470,13 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
         if (i < 0) continue;
         s.rhs.segment<3>(3 * i) = V.mass[v] * V.v[v] + h * (V.force[v] + V.mass[v] * params.gravity);
       }
-      if (params.external_force && !params.external_force->empty())
-        for (int32_t v = 0; v < nv; ++v) {
-          const int32_t i = s.free_index[v];
-          if (i >= 0) s.rhs.segment<3>(3 * i) += h * (*params.external_force)[v];
-        }
+      // A spring k (anchor − x): its force on the right, its stiffness on the diagonal, like the membrane's.
+      for (const ImplicitParams::Spring& spring : params.springs) {
+        const int32_t i = spring.vertex >= 0 && spring.vertex < nv ? s.free_index[spring.vertex] : -1;
+        if (i < 0) continue;
+        s.rhs.segment<3>(3 * i) += h * spring.stiffness * (spring.anchor - V.x[spring.vertex]);
+        values[s.diagonal_key[i]].diagonal().array() += kscale * spring.stiffness;
+      }
       for (int32_t t = 0; t < nt; ++t)
         for (int k = 0; k < 6; ++k) {
           const int32_t dest = s.tri_dest[t][k];

@@ -57,8 +57,13 @@ struct ImplicitParams {
   double stiffness_damping = 1e-4;  // β, s (Rayleigh): damps in-plane ringing of the stiff membrane
   RangeRunner run = run_serial;
   int32_t grain = 512;
-  // Per-vertex forces besides gravity (a slipping finger's drag), N; null or empty: none.
-  const std::vector<Vec3>* external_force = nullptr;
+  // Springs from free vertices to anchors (a slipping finger's pinch), integrated implicitly with the rest.
+  struct Spring {
+    int32_t vertex = -1;
+    Vec3 anchor = Vec3::Zero();
+    double stiffness = 0;  // N/m
+  };
+  std::vector<Spring> springs;
 };
 
 struct ImplicitSolver;

@@ -44,26 +44,12 @@ TEST(Grip, HoldsBelowTheGripAndSlipsAbove) {
   EXPECT_NEAR(fingers[0].max_force, 10, 1e-12);
   EXPECT_TRUE(fingers[1].slipping);
   EXPECT_EQ(fingers[1].slips, 1);
-  // A sliding pinch applies its grip, along the pull.
+  // The reading at which the paper starts to slide is the grip's (it holds no more).
   EXPECT_TRUE(fingers[1].reaction.isApprox(Vec3(0, -15, 0)));
   EXPECT_NEAR(fingers[1].max_force, 15, 1e-12);
   // A slipping finger is not checked again until it holds again.
   EXPECT_FALSE(check_grip(v, Vec3::Zero(), fingers));
   EXPECT_EQ(fingers[1].slips, 1);
-}
-
-TEST(Grip, SlippingFingerDragsItsVertexWithTheGrip) {
-  Vertices v = two_vertices();
-  std::vector<Finger> fingers{finger_on(0, 15), finger_on(1, 12)};
-  fingers[1].slipping = true;
-  std::vector<Vec3> external;
-  slipping_drag(v, fingers, {Vec3::Zero(), Vec3(0.1, 0.03, 0.04)}, external);
-  ASSERT_EQ(external.size(), 2u);
-  EXPECT_EQ(external[0], Vec3::Zero());
-  EXPECT_TRUE(external[1].isApprox(Vec3(0, 12 * 0.6, 12 * 0.8)));
-  fingers[1].slipping = false;
-  slipping_drag(v, fingers, {Vec3::Zero(), Vec3::Zero()}, external);
-  EXPECT_TRUE(external.empty()) << "no drag when no finger slips";
 }
 
 TEST(Grip, RegripsWhereThePaperIsOrLetsGoPastItsReach) {

@@ -428,8 +428,12 @@ TEST(Scenario, SettingsAreWrittenIntoTheJsonBeforeReading) {
 TEST(Scenario, TearingIsRead) {
   const pt::Scenario d = pt::parse_scenario(
       R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})", "x.json");
-  EXPECT_EQ(d.tearing.direction, "bisector");
-  EXPECT_EQ(d.tearing.snap_fraction(), 0.25);  // DESIGN §5.5's snapping, as before the option
+  EXPECT_EQ(d.tearing.direction, "tension_rays");
+  EXPECT_EQ(d.tearing.snap_fraction(), 0.06);  // a snapped end must not turn the step
+  const pt::Scenario f = pt::parse_scenario(
+      R"({"sheet": {"preset": "A6"}, "tearing": {"direction": "fan"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
+      "x.json");
+  EXPECT_EQ(f.tearing.snap_fraction(), 0.25);  // the fan rule's snapping, as before the option
   const pt::Scenario s = pt::parse_scenario(
       R"({"sheet": {"preset": "A6"}, "tearing": {"direction": "material_force", "radius": 0.03},
           "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",

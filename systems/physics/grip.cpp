@@ -25,16 +25,35 @@ bool check_grip(const Vertices& verts, const Vec3& gravity, std::vector<Finger>&
   return started;
 }
 
-void slipping_drag(const Vertices& verts, const std::vector<Finger>& fingers, const std::vector<Vec3>& hold_point,
-                   std::vector<Vec3>& external) {
-  external.clear();
+void read_reactions(const Vertices& verts, const Vec3& gravity, std::vector<Finger>& fingers) {
+  for (Finger& f : fingers) {
+    if (f.vertex < 0 || f.slipping) continue;
+    f.reaction = held_reaction(verts, gravity, f.vertex);
+    f.max_force = std::max(f.max_force, std::min(f.reaction.norm(), f.grip));
+  }
+}
+
+bool grip_exceeded(const std::vector<Finger>& fingers) {
+  for (const Finger& f : fingers)
+    if (f.vertex >= 0 && !f.slipping && f.reaction.norm() > f.grip) return true;
+  return false;
+}
+
+Vec3 slipping_pinch_force(const Vertices& verts, const Finger& finger, const Vec3& hold_point, double stiffness) {
+  const Vec3 d = hold_point - verts.x[finger.vertex];
+  const double n = d.norm();
+  if (!(n > 0) || !(stiffness > 0)) return Vec3::Zero();
+  return (std::min(stiffness * n, finger.grip) / n) * d;
+}
+
+void slipping_pinches(const Vertices& verts, const std::vector<Finger>& fingers, const std::vector<Vec3>& hold_point,
+                      double stiffness, std::vector<ImplicitParams::Spring>& springs) {
+  springs.clear();
   for (size_t i = 0; i < fingers.size(); ++i) {
     const Finger& f = fingers[i];
     if (f.vertex < 0 || !f.slipping) continue;
-    if (external.empty()) external.assign(verts.size(), Vec3::Zero());
-    const Vec3 d = hold_point[i] - verts.x[f.vertex];
-    const double n = d.norm();
-    if (n > 0) external[f.vertex] += (f.grip / n) * d;
+    const Vec3 force = slipping_pinch_force(verts, f, hold_point[i], stiffness);
+    springs.push_back({f.vertex, verts.x[f.vertex] + force / stiffness, stiffness});
   }
 }
 

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <set>
 #include <utility>
 
@@ -150,6 +151,12 @@ int32_t propagate_candidate(const TearingParams& params, const Candidate& c, int
   const int32_t parent = c.tear < 0 ? sheet.verts.tear[c.vertex] : -1;  // a branch of the tear it starts on
   const int32_t pieces_before = sheet.topo.piece_count;
   const double area_before = params.check_invariants ? total_rest_area(sheet.tris) : -1.0;
+  // With the tension rays an inward corner starts by the rays' rule whatever else flags it: say so (read
+  // before the cut renumbers the vertices).
+  Candidate started = c;
+  if (params.direction == TearDirection::TensionRays && c.tear < 0 && c.kind == StartKind::Junction &&
+      interior_pattern_angle(sheet.topo, sheet.verts.rest, c.vertex) > std::numbers::pi + 1e-9)
+    started.kind = StartKind::Inward;
   const CutResult cut = cut_tear_segment(c.vertex, decision.next, previous, tear_id, params.remesh, sheet);
   if (!cut.cut) return -1;
   if (params.delaunay_flips) flip_towards_delaunay_near_new_vertices(FlipParams{}, sheet);
@@ -160,7 +167,7 @@ int32_t propagate_candidate(const TearingParams& params, const Candidate& c, int
       log.violations.push_back("frame " + std::to_string(frame) + ", tear " + std::to_string(tear_id) + ": " +
                                problem);
   }
-  record_tear_segment(c, uv, cut, parent, sheet.topo.piece_count > pieces_before, frame, sheet.tears, sheet.tips,
+  record_tear_segment(started, uv, cut, parent, sheet.topo.piece_count > pieces_before, frame, sheet.tears, sheet.tips,
                       log.events);
   refresh_role_flags(sheet.fingers, sheet.tips, sheet.verts.flags);
   return tear_id;

@@ -1,6 +1,10 @@
 #include "systems/tearing/tension_ray_decision.hpp"
 
+#include "systems/topology.hpp"
+
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <limits>
 
 namespace pt {
@@ -27,9 +31,52 @@ double start_wrap_excess(const Sheet& sheet, const TensionRays& rays, std::span<
   return best;
 }
 
+namespace {
+
+// Steps along t when it points into the material: p_next = p + k Er t, bounded.
+void finish_decision(const Sheet& sheet, int32_t p, const PropagationParams& propagation, PropagationDecision& d) {
+  d.into_material = direction_into_material(sheet.topo, sheet.verts.rest, p, d.direction, propagation.angle_tolerance);
+  d.propagate = d.griffith && d.into_material;
+  if (!d.propagate) return;
+  d.next = next_tip_position(sheet.verts.rest[p], d.direction, d.energy_release, propagation);
+  if (!d.next.allFinite()) {
+    d.propagate = false;
+    d.next = Vec2::Zero();
+  }
+}
+
+bool inward_corner(const Sheet& sheet, int32_t p) {
+  return interior_pattern_angle(sheet.topo, sheet.verts.rest, p) > std::numbers::pi + 1e-9;
+}
+
+}  // namespace
+
+PropagationDecision decide_edge_start(const Sheet& sheet, int32_t p, double fracture_energy,
+                                      const PropagationParams& propagation, const MembraneParams& membrane,
+                                      const TensionRayDecisionParams& params, TensionRayDecisionScratch& scratch) {
+  PropagationDecision d;
+  const EdgeTension edge =
+      edge_tension(sheet.verts, sheet.tris, sheet.topo, p, params.edge_radius, membrane, scratch.edge);
+  d.energy_release = std::max(0.0, edge.tension) * params.start_length / propagation.thickness;
+  d.griffith = std::isfinite(d.energy_release) && d.energy_release >= fracture_energy;
+  if (!d.griffith) return d;
+  finger_load_points(sheet.fingers, scratch.loads);
+  TensionRaysParams rp = params.rays;
+  rp.thickness = propagation.thickness;
+  compute_tension_rays(sheet.verts.rest, sheet.tris.piece, sheet.topo, p, scratch.loads, rp, scratch.rays,
+                       scratch.result);
+  d.angle = scratch.result.theta;
+  // Across the edge's tension: the inward normal (the sheet lies left of prev → p → next).
+  d.direction = scratch.result.valid ? scratch.result.direction : Vec2(-edge.tangent.y(), edge.tangent.x());
+  finish_decision(sheet, p, propagation, d);
+  return d;
+}
+
 PropagationDecision decide_by_tension_rays(const Sheet& sheet, int32_t p, double fracture_energy, bool is_start,
                                            const PropagationParams& propagation, const MembraneParams& membrane,
                                            const TensionRayDecisionParams& params, TensionRayDecisionScratch& scratch) {
+  if (is_start && !inward_corner(sheet, p))
+    return decide_edge_start(sheet, p, fracture_energy, propagation, membrane, params, scratch);
   PropagationDecision d;
   finger_load_points(sheet.fingers, scratch.loads);
   TensionRays& rays = scratch.result;
@@ -58,15 +105,7 @@ PropagationDecision decide_by_tension_rays(const Sheet& sheet, int32_t p, double
     if (!(force.j.squaredNorm() > 0) || !force.j.allFinite()) return d;
     d.direction = force.j.normalized();
   }
-  d.into_material = direction_into_material(sheet.topo, sheet.verts.rest, p, d.direction, propagation.angle_tolerance);
-  d.propagate = d.into_material;
-  if (d.propagate) {
-    d.next = next_tip_position(sheet.verts.rest[p], d.direction, d.energy_release, propagation);
-    if (!d.next.allFinite()) {
-      d.propagate = false;
-      d.next = Vec2::Zero();
-    }
-  }
+  finish_decision(sheet, p, propagation, d);
   return d;
 }
 

@@ -8,17 +8,23 @@
 // - t = −normalize(u_L + u_R), O'Keefe's bisector: for two fingers, the tangent of the hyperbola
 //   |PA| − |PB| = const. Where the rays give no direction into the material (one side empty, the pulls
 //   opposite, t out of the sheet) t is the crack driving force, the J-vector (systems/material_force.hpp).
-// - A tear starts only where the load between the two sides passes: a start point p must lie on a
-//   shortest path between a load point on its left and one on its right, within `start_wrap` (a physical
-//   length): d(A, p) + d(p, B) − d(A, B) ≤ start_wrap. The tension that joins two pulling fingers wraps
-//   around a notch's apex and is carried along a straight edge between them, but passes by a notch's flanks
-//   and a held corner; without this, every boundary point between two fingers would read the same Er.
+// - At an inward corner (a notch, the kink of an old tear) a tear starts only where the load between the
+//   two sides passes: p must lie on a shortest path between a load point on its left and one on its right,
+//   within `start_wrap` (a physical length): d(A, p) + d(p, B) − d(A, B) ≤ start_wrap. The tension that
+//   joins two pulling fingers wraps around a notch's apex but passes by its flanks; without this, every
+//   boundary point between two fingers would read the same Er.
+// - Elsewhere on the edge (a junction, a pinching finger, a twisted or crumpled border) no ray wraps, and
+//   what starts a tear is the edge pulled apart along its length: Er = N_tt · start_length / e with N_tt
+//   the tension along the edge over a physical disc (systems/tearing/edge_tension.hpp), i.e. a tear starts
+//   when the edge's tension over start_length carries the force of a trouser start. Its direction is the
+//   rays' when they give one, else straight into the sheet, across the tension.
 #pragma once
 
 #include "components/sheet.hpp"
 #include "systems/material_force.hpp"
 #include "systems/membrane_forces.hpp"
 #include "systems/propagation.hpp"
+#include "systems/tearing/edge_tension.hpp"
 #include "systems/tearing/tension_rays.hpp"
 
 namespace pt {
@@ -26,6 +32,8 @@ namespace pt {
 struct TensionRayDecisionParams {
   TensionRaysParams rays;
   double start_wrap = 0.003;          // m: how far off the path between two loads a start may lie
+  double start_length = 0.01;         // m: the edge length whose tension starts a tear at a convex point
+  double edge_radius = 0.005;         // m: the disc over which the edge's tension is read
   double driving_force_radius = 0.04; // m, the J-vector's domain (fallback direction)
 };
 
@@ -36,6 +44,7 @@ struct TensionRayDecisionScratch {
   PatternPaths between;        // shortest paths between the two sides' loads (the start test)
   std::vector<int32_t> targets;
   DrivingForceScratch driving;
+  EdgeTensionScratch edge;
   std::vector<int32_t> singular;
 };
 
@@ -43,6 +52,11 @@ struct TensionRayDecisionScratch {
 // A and right loads B of the tension rays `rays` at p, m (infinity when no pair is connected).
 double start_wrap_excess(const Sheet& sheet, const TensionRays& rays, std::span<const LoadPoint> loads,
                          TensionRayDecisionScratch& scratch);
+
+// A start at a convex or straight boundary point p, from the tension along the edge (see above).
+PropagationDecision decide_edge_start(const Sheet& sheet, int32_t p, double fracture_energy,
+                                      const PropagationParams& propagation, const MembraneParams& membrane,
+                                      const TensionRayDecisionParams& params, TensionRayDecisionScratch& scratch);
 
 // The decision at candidate vertex p (Ef its fracture energy; `is_start`: p is not an active tip).
 // `previous` is the tip's last direction (zero for a start). `membrane` is the energy of the J-vector fallback.
