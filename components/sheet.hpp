@@ -25,8 +25,8 @@ using Vec3 = Eigen::Vector3d;
 using Mat2 = Eigen::Matrix2d;
 using Tri = std::array<int32_t, 3>;
 
-// Office paper, 80 g/m² (DESIGN §4). The tearing constants are calibrated so a sheet tears when the
-// pulling force is about 0.5–1 N (DESIGN §5.2): Er = (|F_l|+|F_r|) cos(φ/2) / e, Ef = c · T · d.
+// Office paper, 80 g/m² (docs/physics.md). The tearing constants are calibrated so a trouser pull starts
+// at 0.6–1.25 N per finger (docs/tearing.md): Er = (F_L + F_R) cos(θ/2) / e, Ef = c · T · d.
 struct Material {
   double thickness = 1e-4;     // e, m
   double density = 800;        // kg/m³ (800 · 1e-4 = 80 g/m²)
@@ -54,7 +54,7 @@ enum VertexFlag : uint8_t {
   kBoundary = 1 << 0,   // on the sheet's boundary (outline or a tear lip)
   kFinger = 1 << 1,     // a finger holds it
   kTip = 1 << 2,        // the tip of an active tear
-  kJunction = 1 << 3,   // junction point of the geometric layer (DESIGN §5.1)
+  kJunction = 1 << 3,   // junction point of the geometric layer (docs/tearing.md)
   kNew = 1 << 4,        // created by the last remesh
   kInward = 1 << 5,     // boundary vertex with interior pattern angle > π
   kSingular = 1 << 6,   // interior singular point (bending concentrates)
@@ -93,7 +93,7 @@ struct Vertices {
 };
 
 // Per triangle. `corner_force[t][i]` is the membrane force triangle t applies to its corner i
-// (written by the force system, read by clustering, DESIGN §5.3).
+// (written by the force system, read by clustering and the J-vector).
 struct Triangles {
   std::vector<Tri> tri;                          // vertex ids, counter-clockwise in the pattern
   std::vector<Mat2> rest_inv;                    // inverse of [r1 − r0, r2 − r0] (pattern)
@@ -173,7 +173,7 @@ struct Region {
 enum class StartKind : uint8_t { Finger = 0, Junction = 1, Inward = 2 };
 
 // A tear: stable id, never removed. `tips` is the coarse path in the pattern (the first is the start
-// point), `detail` the fine path of the carving system (DESIGN §5.6).
+// point), `detail` the fine path of the carving system (paper §6).
 struct Tear {
   int32_t id = -1;
   int32_t parent = -1;

@@ -1,4 +1,4 @@
-// Corotated linear constant-strain triangles (DESIGN §4). See membrane_forces.hpp for the energy.
+// Corotated linear constant-strain triangles (docs/physics.md). See membrane_forces.hpp for the energy.
 //
 // Why this formulation: for the corotated energy W(F) = e·A·(μ‖F − R‖² + λ/2 tr(RᵀF − I)²) with R the polar
 // factor of F, the first Piola stress has the closed form P = e·A·(2μ(F − R) + λ tr(RᵀF − I) R): the terms

@@ -1,4 +1,4 @@
-// Energy release rate, Griffith's criterion and the next tip (paper §5.2, eqs. 1, 2, 6; DESIGN §5.4).
+// Energy release rate, Griffith's criterion and the next tip (paper §5.2, eqs. 1, 2, 6).
 //
 // The two clusters act like O'Keefe's two pulling fingers (paper eq. 2): the tear runs along the
 // bisector of their pattern directions, away from them, and releases Er = (‖F_l‖+‖F_r‖) cos(φ/2) / e.
@@ -14,7 +14,7 @@ namespace pt {
 namespace {
 
 // Below this, F̂_l + F̂_r (length 2 cos(φ/2)) has no reliable direction: the pulls are opposite in the
-// pattern (φ ≈ π), a flat in-plane pull, which does not tear (DESIGN §5.4) and has Er ≈ 0 anyway.
+// pattern (φ ≈ π), a flat in-plane pull, which does not tear (docs/tearing.md) and has Er ≈ 0 anyway.
 constexpr double kOppositeTolerance = 1e-9;
 
 bool finite(const Vec2& v) { return std::isfinite(v.x()) && std::isfinite(v.y()); }

@@ -1,4 +1,4 @@
-// Energy release rate, Griffith's test and the next tip (paper §5.2 eq. 6, DESIGN §5.4).
+// Energy release rate, Griffith's test and the next tip (paper §5.2 eq. 6).
 #pragma once
 
 #include "components/sheet.hpp"

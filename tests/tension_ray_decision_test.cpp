@@ -48,9 +48,11 @@ TEST(TensionRayDecision, TrouserPullTearsAtEfTimesThicknessOverTwo) {
     TensionRayDecisionScratch scratch;
     const PropagationDecision d =
         decide_by_tension_rays(s, tip, ef, false, propagation(), MembraneParams{}, TensionRayDecisionParams{}, scratch);
-    EXPECT_NEAR(d.angle, 0, 1e-12);
-    EXPECT_NEAR(d.energy_release, 2 * scale * threshold / kThickness, 1e-6);
     EXPECT_EQ(d.griffith, scale > 1) << "scale " << scale;
+    if (scale > 1) {
+      EXPECT_NEAR(d.angle, 0, 1e-12);
+      EXPECT_NEAR(d.energy_release, 2 * scale * threshold / kThickness, 1e-6);
+    }
     EXPECT_EQ(d.propagate, scale > 1);
     if (d.propagate) {
       EXPECT_TRUE(d.direction.isApprox(Vec2(0, 1), 1e-12)) << "straight on, away from the legs";

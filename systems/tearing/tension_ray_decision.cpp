@@ -79,6 +79,11 @@ PropagationDecision decide_by_tension_rays(const Sheet& sheet, int32_t p, double
     return decide_edge_start(sheet, p, fracture_energy, propagation, membrane, params, scratch);
   PropagationDecision d;
   finger_load_points(sheet.fingers, scratch.loads);
+  // Er ≤ Σ‖R_j‖ / e whatever the paths and the split (cos(θ/2) ≤ 1): most points of most frames stop here,
+  // before any path is sought. NaN reactions stop here too.
+  double total = 0;
+  for (const LoadPoint& l : scratch.loads) total += l.reaction.norm();
+  if (!(total / propagation.thickness >= fracture_energy)) return d;
   TensionRays& rays = scratch.result;
   TensionRaysParams rp = params.rays;
   rp.thickness = propagation.thickness;
