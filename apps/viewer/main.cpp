@@ -254,7 +254,9 @@ struct App {
   // The thickness takes effect on Reset: it sets the masses and the stiffness of the factorised system,
   // which the engine builds with the sheet. The other parameters are live (edits).
   double thickness = 1e-4;
-  bool material_force = false;  // tip direction from the crack driving force (tearing.direction), on Reset
+  // The tear rule (tearing.direction), applied on Reset: index into kDirections.
+  static constexpr const char* kDirections[3] = {"tension_rays", "fan", "material_force"};
+  int direction = 0;
 
   void say(const std::string& s) {
     status = s;
@@ -266,7 +268,7 @@ struct App {
     sync();
     // The sheet starts again with the panel's values, the live ones included.
     scenario.material.thickness = thickness;
-    scenario.tearing.direction = material_force ? "material_force" : "bisector";
+    scenario.tearing.direction = kDirections[direction];
     write_live_parameters(edits, scenario);
     EngineOptions eo;
     eo.threads = opt.threads;
@@ -286,7 +288,10 @@ struct App {
 
   void take_parameters_from_scenario() {
     thickness = scenario.material.thickness;
-    material_force = scenario.tearing.direction == "material_force";
+    direction = 0;
+    for (int k = 0; k < 3; ++k)
+      if (scenario.tearing.direction == kDirections[k]) direction = k;
+    if (scenario.tearing.direction == "bisector") direction = 1;  // the fan rule's other name
     edits = live_parameters_of(scenario);
     std::string base = scenario.name.empty() ? "session" : scenario.name;
     std::snprintf(record_path, sizeof record_path, "%s-session.json", base.c_str());
@@ -661,10 +666,11 @@ struct App {
       if (ImGui::SliderScalar("thickness e (m)", ImGuiDataType_Double, &thickness, &t_lo, &t_hi, "%.2e",
                               ImGuiSliderFlags_Logarithmic))
         pending_reset_params = true;
-      if (ImGui::Checkbox("tip direction: material force", &material_force)) pending_reset_params = true;
+      if (ImGui::Combo("tear rule", &direction, kDirections, 3)) pending_reset_params = true;
       if (ImGui::IsItemHovered())
-        ImGui::SetTooltip("the J-integral's direction of largest energy release over 4 cm around the tip,\n"
-                          "instead of the bisector of the tip's two force clusters (eq. 4-6)");
+        ImGui::SetTooltip("tension_rays: the fingers' pulls along their shortest paths in the pattern;\n"
+                          "fan: eq. 4-6 on the tip's own triangles (the paper's rule);\n"
+                          "material_force: the J-integral's direction over 4 cm around the tip");
       if (pending_reset_params) ImGui::TextColored(ImVec4(1, 0.7f, 0.2f, 1), "Reset (R) to apply");
       ImGui::TextDisabled("recording saves the current values");
     }
