@@ -548,7 +548,7 @@ void validate_scenario(const Scenario& s) {
   // The names the tearing step knows (systems/tearing/tearing_step.hpp): "fan" is the bisector's other name.
   if (TearDirection d; !tear_direction_from_name(s.tearing.direction, d))
     fail(file, "tearing.direction",
-         "unknown direction \"" + s.tearing.direction + "\" (bisector, fan or material_force)");
+         "unknown direction \"" + s.tearing.direction + "\" (tension_rays, fan, bisector or material_force)");
   check_positive(file, "tearing.radius", s.tearing.radius);
   if (s.tearing.radius > kMaxCoordinate)
     fail(file, "tearing.radius", "absurd size " + fmt(s.tearing.radius) + " (at most " + fmt(kMaxCoordinate) + ")");
