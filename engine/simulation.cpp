@@ -126,7 +126,7 @@ struct Simulation::Impl {
   RegionSummary region_summary;
   TearingLog tearing_log;  // events, invariant violations and the count of cuts
   double max_strain = 0;              // largest principal in-plane strain at the end of any frame so far
-  std::vector<double> strain_slots;   // per kernel range, for it
+  std::vector<double> triangle_strain;  // per triangle, for it
 
   tbb::task_arena arena;
   std::unique_ptr<tbb::flow::graph> graph;
@@ -340,13 +340,13 @@ struct Simulation::Impl {
       gather_corner_forces(sheet.topo, T.tri, T.corner_force, b, e, V.force);
     });
     add_bending_forces(V.x, bending, V.force);
-    // The run's largest principal strain (result.json "max_strain"); a max is the same in any order.
-    std::vector<double>& slot = strain_slots;
-    slot.assign(T.size() / std::max(1, options.parallel_grain) + 1, 0.0);
+    // The run's largest principal strain (result.json "max_strain"): per triangle in the ranges (each
+    // writes its own slots), the max taken serially.
+    triangle_strain.resize(T.size());
     run_ranges(T.size(), options.parallel_grain, [&](int32_t b, int32_t e) {
-      slot[b / std::max(1, options.parallel_grain)] = max_principal_strain(V.x, T.tri, T.rest_inv, b, e);
+      for (int32_t t = b; t < e; ++t) triangle_strain[t] = max_principal_strain(V.x, T.tri, T.rest_inv, t, t + 1);
     });
-    for (const double v : slot) max_strain = std::max(max_strain, v);
+    for (const double v : triangle_strain) max_strain = std::max(max_strain, v);
     // A held vertex is in quasi-static balance: the finger supplies what the sheet and gravity do not.
     for (size_t i = 0; i < sheet.fingers.size(); ++i) {
       Finger& f = sheet.fingers[i];
