@@ -78,7 +78,9 @@ TEST(MembraneForces, StrainLimitTermOfAUniaxialStretch) {
       EXPECT_NEAR(w, p.limit_mu * x * x, 1e-9 * p.limit_mu * 1e-4);
       EXPECT_LT((tau - 2 * p.limit_mu * x * v * v.transpose()).norm(), 1e-9 * p.limit_mu);
       EXPECT_EQ(tangent.count, x > 0 ? 1 : 0);
-      if (x > 0) EXPECT_NEAR(std::abs(tangent.direction[0].dot(v)), 1.0, 1e-12);
+      if (x > 0) {
+        EXPECT_NEAR(std::abs(tangent.direction[0].dot(v)), 1.0, 1e-12);
+      }
     }
 }
 
