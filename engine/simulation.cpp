@@ -115,6 +115,7 @@ struct Simulation::Impl {
   int32_t frame = 0;
   std::vector<Vec3> targets_begin;  // finger targets at the start of the frame
   int32_t resume_substep = -1;     // the substep a frame stopped for tearing resumes at (stops_for_tearing)
+  double physics_alpha = 1.0;      // how far through the frame's finger motion the physics is (1 unless stopped)
   std::vector<Vec3> hold_points;  // per finger: scratch of the pinches and the re-grip after a cut
   // A slipping pinch pulls like this spring, its force capped at the grip: the grip within ~2 mm.
   static constexpr double kPinchStiffness = 7500;  // N/m
@@ -201,10 +202,12 @@ struct Simulation::Impl {
 
   // Where finger i keeps its vertex at fraction alpha of the frame: its target plus the offset the paper
   // has slid by.
-  Vec3 hold_point(size_t i, double alpha) const {
-    const Finger& f = sheet.fingers[i];
-    return (1 - alpha) * targets_begin[i] + alpha * f.target + f.hold_offset;
+  // Finger i's target at fraction alpha of the frame's motion, and the point its pinch holds (the target
+  // plus how far the paper has slid through it).
+  Vec3 target_at(size_t i, double alpha) const {
+    return (1 - alpha) * targets_begin[i] + alpha * sheet.fingers[i].target;
   }
+  Vec3 hold_point(size_t i, double alpha) const { return target_at(i, alpha) + sheet.fingers[i].hold_offset; }
 
   void held_vertices(double alpha, std::vector<int32_t>& held, std::vector<Vec3>& target) const {
     held.clear();
@@ -254,9 +257,14 @@ struct Simulation::Impl {
     update_finger_targets(time_at(frame + 1), sheet.hands, sheet.fingers);
   }
 
-  // `may_slip`: a finger past its grip slips now; otherwise its reaction is only read (the frame is about
-  // to stop for the tearing step, which may relieve it).
-  void substep(double alpha, bool may_slip = true) {
+  // What a substep does with the fingers' reactions, which it reads on the state it started from.
+  enum class Reactions {
+    Grip,  // a finger past its grip slips now
+    Read,  // only read: the frame is about to stop for the tearing step, which may relieve them
+    Skip,  // not read: the state is a fresh cut, not a state of the sheet's motion (relax_after_cut reads
+           // the relaxed one)
+  };
+  void substep(double alpha, Reactions reactions = Reactions::Grip) {
     std::vector<int32_t> held;
     std::vector<Vec3> target;
     held_vertices(alpha, held, target);
@@ -271,27 +279,14 @@ struct Simulation::Impl {
     // verts.force now holds the internal forces of the state this substep started from: the fingers'
     // reactions during it.
     if (!implicit_substep(implicit_params, held, target, implicit, sheet)) return;
-    if (may_slip)
+    if (reactions == Reactions::Grip)
       check_grip(sheet.verts, scenario.sim.gravity, sheet.fingers);
-    else
+    else if (reactions == Reactions::Read)
       read_reactions(sheet.verts, scenario.sim.gravity, sheet.fingers);
   }
 
-  // An active tip that the tension rays would advance now (the candidates list the tips first).
-  bool tip_would_advance() {
-    for (const Candidate& c : candidates) {
-      if (c.tear < 0) break;
-      if (c.vertex >= sheet.verts.size()) continue;
-      const PropagationDecision d =
-          decide_by_tension_rays(sheet, c.vertex, c.fracture_energy, false, tearing_params.propagation, membrane,
-                                 tearing_params.rays, tearing_scratch.rays);
-      if (d.propagate) return true;
-    }
-    return false;
-  }
-
   // Quasi-static tearing at the substeps' pace: the frame's physics stops at the first substep after which
-  // a finger holds more than its grip or a tip would advance, the tearing step runs on that state, and the
+  // a finger holds more than its grip or the tearing step would cut (a tip advances or a tear starts), the tearing step runs on that state, and the
   // frame's remaining substeps follow it (resume_substep). Fingers do not out-run the tear.
   bool stops_for_tearing() const {
     return tearing_params.direction == TearDirection::TensionRays && !use_projective &&
@@ -302,11 +297,14 @@ struct Simulation::Impl {
     ScopedTimer timer(profile.integrate);
     const int32_t n = scenario.sim.substeps;
     resume_substep = -1;
+    physics_alpha = 1.0;
     const bool may_stop = stops_for_tearing();
     for (int32_t s = 1; s <= n; ++s) {
-      substep(static_cast<double>(s) / n, !may_stop || s == n);
-      if (may_stop && s < n && (grip_exceeded(sheet.fingers) || tip_would_advance())) {
+      substep(static_cast<double>(s) / n, !may_stop || s == n ? Reactions::Grip : Reactions::Read);
+      if (may_stop && s < n && (grip_exceeded(sheet.fingers) ||
+                                  tension_rays_would_tear(tearing_params, candidates, sheet, tearing_scratch))) {
         resume_substep = s + 1;
+        physics_alpha = static_cast<double>(s) / n;
         return;
       }
     }
@@ -321,6 +319,7 @@ struct Simulation::Impl {
       for (int32_t s = resume_substep; s <= n; ++s) substep(static_cast<double>(s) / n);
     }
     resume_substep = -1;
+    physics_alpha = 1.0;
     ScopedTimer timer(profile.forces);
     compute_forces();
   }
@@ -351,7 +350,7 @@ struct Simulation::Impl {
     for (size_t i = 0; i < sheet.fingers.size(); ++i) {
       Finger& f = sheet.fingers[i];
       if (f.vertex < 0) f.reaction.setZero();
-      else if (f.slipping) f.reaction = slipping_pinch_force(V, f, hold_point(i, 1.0), kPinchStiffness);
+      else if (f.slipping) f.reaction = slipping_pinch_force(V, f, hold_point(i, physics_alpha), kPinchStiffness);
     }
     check_grip(V, scenario.sim.gravity, sheet.fingers);
   }
@@ -376,22 +375,23 @@ struct Simulation::Impl {
   void refresh_role_flags() { pt::refresh_role_flags(sheet.fingers, sheet.tips, sheet.verts.flags); }
 
   // Fig. 4 step 4 after a cut: an extra substep of the whole sheet or a substep of the patch around the
-  // tear's path, then the forces of the relaxed state for the next point's clustering.
+  // tear's path, then the forces of the relaxed state for the next point's clustering. The fingers stay
+  // where the physics stopped (physics_alpha): the relaxation lets the lips open, it does not move the hands.
   void relax_after_cut(int32_t tear_id) {
     // A slipping finger holds again where it is: the cut may have relieved the pull that made it slip.
     hold_points.clear();
-    for (const Finger& f : sheet.fingers) hold_points.push_back(f.target);
+    for (size_t i = 0; i < sheet.fingers.size(); ++i) hold_points.push_back(target_at(i, physics_alpha));
     if (regrip_slipping_fingers(sheet.verts, hold_points, sheet.fingers)) refresh_role_flags();
     if (relaxation == Relaxation::Patch) {
       std::vector<int32_t> held;
       std::vector<Vec3> target;
-      held_vertices(1.0, held, target);
+      held_vertices(physics_alpha, held, target);
       if (!relax_patch_after_cut(implicit_params, local_relaxation, sheet.tears[tear_id].tips, held, target,
                                  local_scratch, sheet)
                .relaxed)
         ++patch_failures;
     } else {
-      substep(1.0);
+      substep(physics_alpha, Reactions::Skip);
     }
     compute_forces();
   }

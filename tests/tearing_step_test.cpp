@@ -410,3 +410,48 @@ TEST(TearingStep, StepSkipsShieldedStarts) {
   EXPECT_EQ(log.remeshes, 1);
   EXPECT_EQ(counting.relaxed, 1);
 }
+
+// The engine's substep stop asks whether the step would cut: a trouser tip held at its legs with the
+// tension rays, below and above Griffith's threshold, agrees with what the step then does; a tip the turn
+// limit holds does not count.
+TEST(TearingStep, WouldTearAgreesWithTheStep) {
+  const double ef = 2e4, threshold = ef * 1e-4 / 2;  // per finger: Er = (F_L + F_R)/e
+  for (const double scale : {0.99, 1.01}) {
+    Sheet s = test::slit_grid(0.2, 0.15, 10, 6, {{5, 3}});
+    const int32_t tip = test::vertex_at(s, Vec2(0.1, 0.075));
+    for (const double side : {-1.0, 1.0}) {
+      Finger f;
+      f.vertex = test::vertex_at(s, Vec2(0.1, 0), Vec2(side, 0.1));
+      f.reaction = Vec3(0, 0, scale * threshold);
+      s.fingers.push_back(f);
+    }
+    s.tears.resize(1);
+    s.tears[0].id = 0;
+    s.tears[0].tips = {Vec2(0.1, 0), Vec2(0.1, 0.075)};
+    s.tips.push_back(Tip{tip, 0, Vec2(0, 1)});
+    TearingParams params = step_params(0.01);
+    params.direction = TearDirection::TensionRays;
+    params.quasi_static = true;
+    std::vector<Candidate> candidates = {Candidate{tip, StartKind::Inward, 0, ef}};
+    TearingScratch scratch;
+    const bool would = tension_rays_would_tear(params, candidates, s, scratch);
+    EXPECT_EQ(would, scale > 1) << "scale " << scale;
+    CountingHooks counting;
+    counting.list = [&] { candidates.clear(); };
+    TearingLog log;
+    TearingTimes times;
+    run_tearing_step(params, counting.hooks(s), candidates, 0, s, log, times, scratch);
+    EXPECT_EQ(log.remeshes, would ? 1 : 0);
+
+    // The turn limit: the same pull on a tip whose last segment ran at 45°.
+    if (scale > 1) {
+      Sheet sideways = s;
+      sideways.tips[0].direction = Vec2(1, 1).normalized();
+      TearingParams strict = params;
+      strict.max_tip_turn = 30.0 * kPi / 180;
+      const std::vector<Candidate> tip_only = {Candidate{sideways.tips[0].vertex, StartKind::Inward, 0, ef}};
+      EXPECT_TRUE(tension_rays_would_tear(params, tip_only, sideways, scratch));  // 45° < 75°
+      EXPECT_FALSE(tension_rays_would_tear(strict, tip_only, sideways, scratch));
+    }
+  }
+}

@@ -39,7 +39,8 @@ struct Load {
   Vec2 side = Vec2::Zero();  // which copy when `at` is on a lip
 };
 
-TensionRays rays_at(const Sheet& s, int32_t p, const std::vector<Load>& loads) {
+TensionRays rays_at(const Sheet& s, int32_t p, const std::vector<Load>& loads,
+                    const Vec2& previous_direction = Vec2::Zero()) {
   std::vector<LoadPoint> points;
   for (const Load& l : loads) {
     const int32_t v = vertex_at(s, l.at, l.side);
@@ -48,7 +49,9 @@ TensionRays rays_at(const Sheet& s, int32_t p, const std::vector<Load>& loads) {
   }
   TensionRaysScratch scratch;
   TensionRays out;
-  compute_tension_rays(s.verts.rest, s.tris.piece, s.topo, p, points, params(), scratch, out);
+  TensionRaysParams rp = params();
+  rp.previous_direction = previous_direction;
+  compute_tension_rays(s.verts.rest, s.tris.piece, s.topo, p, points, rp, scratch, out);
   return out;
 }
 
@@ -72,8 +75,9 @@ const Vec2 kSlitTip(0.1, 0.06);
 
 }  // namespace
 
-// O'Keefe: on an unslit sheet t is the hyperbola's tangent at p and θ the angle APB. At p on the straight
-// bottom edge the tangent points out of the sheet, so the result is not valid (the caller falls back).
+// O'Keefe: on an unslit sheet t is along the hyperbola's tangent at p and θ the angle APB. At p on the
+// straight bottom edge the tangent away from the foci points out of the sheet, so the start runs along
+// the same line towards them.
 TEST(TensionRays, TwoFingersFollowTheHyperbolaOnAnUnslitSheet) {
   const Sheet s = slit_grid(kW, kH, 20, 15, {});
   const Vec2 P(0.1, 0.0), A(0.05, 0.1), B(0.17, 0.08);
@@ -82,14 +86,29 @@ TEST(TensionRays, TwoFingersFollowTheHyperbolaOnAnUnslitSheet) {
   EXPECT_TRUE(r.rays[0].straight && r.rays[1].straight);
   EXPECT_EQ(r.left_count, 1);
   EXPECT_EQ(r.right_count, 1);
-  EXPECT_NEAR((r.direction - hyperbola_tangent(P, A, B)).norm(), 0, 1e-9);
+  EXPECT_NEAR((r.direction + hyperbola_tangent(P, A, B)).norm(), 0, 1e-9);
   EXPECT_NEAR(r.theta, angle_at(P, A, B), 1e-9);
   // Moving along t keeps |PA| − |PB| constant to first order.
   const double h = 1e-5;
   auto f = [&](const Vec2& X) { return (X - A).norm() - (X - B).norm(); };
   EXPECT_LT(std::abs(f(P + h * r.direction) - f(P)), 1e-2 * h);
-  EXPECT_EQ(r.status, TensionRaysStatus::NotIntoMaterial);
-  EXPECT_FALSE(r.valid);
+  EXPECT_GT(r.direction.y(), 0);
+  EXPECT_TRUE(r.valid) << int(r.status);
+}
+
+// A tip whose fingers lie ahead of it (the tear is about to pass between them) keeps running the way it
+// runs: t along the hyperbola's tangent, oriented by the last segment, not turned back into its lips.
+TEST(TensionRays, ATipKeepsItsWayAlongTheTangent) {
+  const Sheet s = one_slit();
+  const Vec2 A(0.05, 0.08), B(0.16, 0.1);
+  const TensionRays away = rays_at(s, vertex_at(s, kSlitTip), {{A, 0.8}, {B, 0.5}});
+  const TensionRays kept = rays_at(s, vertex_at(s, kSlitTip), {{A, 0.8}, {B, 0.5}}, Vec2(0, 1));
+  ASSERT_TRUE(away.valid && kept.valid);
+  EXPECT_NEAR((away.direction - hyperbola_tangent(kSlitTip, A, B)).norm(), 0, 1e-9);
+  EXPECT_LT(away.direction.y(), 0);  // folds back beside the lips without the tip's direction
+  EXPECT_NEAR((kept.direction + hyperbola_tangent(kSlitTip, A, B)).norm(), 0, 1e-9);
+  EXPECT_GT(kept.direction.y(), 0);
+  EXPECT_DOUBLE_EQ(kept.energy_release, away.energy_release);
 }
 
 // The same at a slit's tip, where the tangent does point into the sheet: valid, Er from eq. 6.

@@ -10,6 +10,7 @@
 #include <set>
 #include <utility>
 
+
 namespace pt {
 
 bool tear_direction_from_name(std::string_view name, TearDirection& out) {
@@ -171,6 +172,24 @@ int32_t propagate_candidate(const TearingParams& params, const Candidate& c, int
                       log.events);
   refresh_role_flags(sheet.fingers, sheet.tips, sheet.verts.flags);
   return tear_id;
+}
+
+bool tension_rays_would_tear(const TearingParams& params, const std::vector<Candidate>& candidates,
+                             const Sheet& sheet, TearingScratch& scratch) {
+  for (const Candidate& c : candidates) {
+    if (c.vertex < 0 || c.vertex >= sheet.verts.size()) continue;
+    if (c.tear < 0 && c.kind != StartKind::Finger &&
+        shielded_by_active_tip(sheet.verts.rest, sheet.tips, sheet.verts.rest[c.vertex], params.shielding_radius))
+      continue;
+    PropagationParams prop = params.propagation;
+    if (c.tear >= 0) prop.previous_direction = tip_direction(sheet.tips, c.tear);
+    const PropagationDecision d = decide_by_tension_rays(sheet, c.vertex, c.fracture_energy, c.tear < 0, prop,
+                                                         params.membrane, params.rays, scratch.rays);
+    if (!d.propagate) continue;
+    if (c.tear >= 0 && !tip_direction_allowed(prop.previous_direction, d.direction, params.max_tip_turn)) continue;
+    return true;
+  }
+  return false;
 }
 
 void run_tearing_step(const TearingParams& params, const TearingHooks& hooks, const std::vector<Candidate>& candidates,

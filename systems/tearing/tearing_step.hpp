@@ -136,6 +136,13 @@ void refresh_role_flags(const std::vector<Finger>& fingers, const std::vector<Ti
 int32_t propagate_candidate(const TearingParams& params, const Candidate& c, int32_t frame, Sheet& sheet,
                             TearingLog& log, TearingTimes& times, TearingScratch& scratch);
 
+// Whether the step would cut anything now with TensionRays: some candidate, tip or start, that is not
+// shielded, passes Griffith's test and points into the material within the turn limit. The engine stops
+// a frame's physics at the first substep where this holds, so a start is caught at the load that starts
+// it, not at the end of the frame (quasi-static tearing).
+bool tension_rays_would_tear(const TearingParams& params, const std::vector<Candidate>& candidates,
+                             const Sheet& sheet, TearingScratch& scratch);
+
 // The frame's tearing step: the candidates in order (hooks.list_candidates rewrites `candidates` after
 // each propagation and the list is walked again from its start), each pattern position and each tear
 // treated at most once, new starts near an active tip skipped, at most params.max_propagations

@@ -87,6 +87,7 @@ PropagationDecision decide_by_tension_rays(const Sheet& sheet, int32_t p, double
   TensionRays& rays = scratch.result;
   TensionRaysParams rp = params.rays;
   rp.thickness = propagation.thickness;
+  rp.previous_direction = propagation.previous_direction;
   compute_tension_rays(sheet.verts.rest, sheet.tris.piece, sheet.topo, p, scratch.loads, rp, scratch.rays, rays);
   if (rays.left_count == 0 || rays.right_count == 0) return d;
   d.angle = rays.theta;

@@ -205,7 +205,7 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
     return;
   }
 
-  // Eq. 6 and O'Keefe's rule: t = −normalize(u_L + u_R), Er = (F_L + F_R) cos(θ/2) / e.
+  // Eq. 6 and O'Keefe's rule: t = ±normalize(u_L + u_R), Er = (F_L + F_R) cos(θ/2) / e.
   const Vec2 ul = s.left.normalized(), ur = s.right.normalized();
   out.left_direction = ul;
   out.right_direction = ur;
@@ -217,11 +217,20 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
     out.status = TensionRaysStatus::Opposite;
     return;
   }
-  out.direction = -sum / sum_norm;
-
-  // Into the material as in propagation.cpp: strictly between the boundary directions at p.
-  const double at = ccw_angle(next_edge, out.direction);
-  if (!(at > params.angle_tolerance && at < interior - params.angle_tolerance)) {
+  // The tear runs along the bisector's line, the hyperbola's tangent at p. Which way: at a tip the way
+  // it already runs (a tear passing between its two fingers keeps going), at a start away from the loads
+  // (Fig. 7) unless only towards them is into the material (fingers beyond a notch's apex).
+  const Vec2 away = -sum / sum_norm;
+  const auto into_material = [&](const Vec2& t) {
+    const double at = ccw_angle(next_edge, t);
+    return at > params.angle_tolerance && at < interior - params.angle_tolerance;
+  };
+  const Vec2& previous = params.previous_direction;
+  if (previous.squaredNorm() > 0)
+    out.direction = away.dot(previous) >= 0 ? away : Vec2(-away);
+  else
+    out.direction = !into_material(away) && into_material(-away) ? Vec2(-away) : away;
+  if (!into_material(out.direction)) {
     out.status = TensionRaysStatus::NotIntoMaterial;
     return;
   }

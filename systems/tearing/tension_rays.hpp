@@ -6,9 +6,9 @@
 // shortest path from p to A_j inside the torn pattern; g_j is that path's direction at p (straight at
 // A_j when nothing is in the way, else at the first tear tip or notch corner the path bends around).
 // The g_j are split in two sides by eq. 4's iterated line through p, each side gives a mean direction
-// u_L, u_R, and the tear runs along their bisector away from them, t = −normalize(u_L + u_R): O'Keefe's
-// rule, which for two fingers A, B is the tangent at p of the hyperbola |PA| − |PB| = const (O'Keefe
-// 1994). Er = (F_L + F_R) cos(θ/2) / e, θ the angle between u_L and u_R (eq. 6).
+// u_L, u_R, and the tear runs along their bisector, t = ±normalize(u_L + u_R): O'Keefe's rule, which for
+// two fingers A, B is the tangent at p of the hyperbola |PA| − |PB| = const (O'Keefe 1994). A tip keeps
+// its way along that line; a start runs away from the loads unless only towards them is into the material. Er = (F_L + F_R) cos(θ/2) / e, θ the angle between u_L and u_R (eq. 6).
 // Only rest positions, the boundary and the reactions enter: on two meshes of the same torn outline
 // the result is the same.
 #pragma once
@@ -34,6 +34,7 @@ struct TensionRaysParams {
   int32_t max_iterations = 20;   // of eq. 4's split
   double opposite_tolerance = 1e-9;  // |u_L + u_R| below this: no direction (θ ≈ π)
   double angle_tolerance = 1e-9;     // rad: t this close to a boundary direction at p is not into the material
+  Vec2 previous_direction = Vec2::Zero();  // a tip's last segment (unit), zero at a start: orients t
   PatternPathParams paths;
 };
 
