@@ -32,7 +32,13 @@ struct TearingSettings {
   std::string direction = "tension_rays";
   double radius = 0.04;                // m, the J-integral's domain ("material_force", and the rays' fallback)
   std::optional<double> snap;          // remeshing's snap fraction of an edge; unset: the direction's default
-  double snap_fraction() const { return snap ? *snap : direction == "bisector" || direction == "fan" ? 0.25 : 0.06; }
+  // A tension-ray tip follows O'Keefe's hyperbola, on which an offset from the snap persists and grows:
+  // 0.03 of an edge keeps a symmetric pull within 0.3% of its mediator (0.06: up to 8%) without slivers.
+  double snap_fraction() const {
+    if (snap) return *snap;
+    if (direction == "bisector" || direction == "fan") return 0.25;
+    return direction == "material_force" ? 0.06 : 0.03;
+  }
 };
 
 struct SimSettings {

@@ -432,7 +432,7 @@ TEST(Scenario, TearingIsRead) {
   const pt::Scenario d = pt::parse_scenario(
       R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})", "x.json");
   EXPECT_EQ(d.tearing.direction, "tension_rays");
-  EXPECT_EQ(d.tearing.snap_fraction(), 0.06);  // a snapped end must not turn the step
+  EXPECT_EQ(d.tearing.snap_fraction(), 0.03);  // a snapped end must not move the tip off its hyperbola
   const pt::Scenario f = pt::parse_scenario(
       R"({"sheet": {"preset": "A6"}, "tearing": {"direction": "fan"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
       "x.json");
