@@ -325,7 +325,10 @@ struct Simulation::Impl {
   }
 
   // Membrane corner forces (kept for clustering), per-vertex sums and bending, then finger reactions.
-  void compute_forces() {
+  // `of_the_motion`: the state is one of the sheet's motion (a frame's end, or where its physics stopped
+  // for tearing), not the one relaxation substep after a cut, whose lips are still snapping open; only
+  // those count for the run's max_strain.
+  void compute_forces(bool of_the_motion = true) {
     Vertices& V = sheet.verts;
     Triangles& T = sheet.tris;
     if (bending_version != sheet.topology_version) {
@@ -341,11 +344,13 @@ struct Simulation::Impl {
     add_bending_forces(V.x, bending, V.force);
     // The run's largest principal strain (result.json "max_strain"): per triangle in the ranges (each
     // writes its own slots), the max taken serially.
-    triangle_strain.resize(T.size());
-    run_ranges(T.size(), options.parallel_grain, [&](int32_t b, int32_t e) {
-      for (int32_t t = b; t < e; ++t) triangle_strain[t] = max_principal_strain(V.x, T.tri, T.rest_inv, t, t + 1);
-    });
-    for (const double v : triangle_strain) max_strain = std::max(max_strain, v);
+    if (of_the_motion) {
+      triangle_strain.resize(T.size());
+      run_ranges(T.size(), options.parallel_grain, [&](int32_t b, int32_t e) {
+        for (int32_t t = b; t < e; ++t) triangle_strain[t] = max_principal_strain(V.x, T.tri, T.rest_inv, t, t + 1);
+      });
+      for (const double v : triangle_strain) max_strain = std::max(max_strain, v);
+    }
     // A held vertex is in quasi-static balance: the finger supplies what the sheet and gravity do not.
     for (size_t i = 0; i < sheet.fingers.size(); ++i) {
       Finger& f = sheet.fingers[i];
@@ -393,7 +398,7 @@ struct Simulation::Impl {
     } else {
       substep(physics_alpha, Reactions::Skip);
     }
-    compute_forces();
+    compute_forces(false);
   }
 
   // Paper Fig. 4 steps 2–4 for each potential tearing point in turn (systems/tearing/tearing_step.hpp).

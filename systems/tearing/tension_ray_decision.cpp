@@ -7,7 +7,6 @@
 #include <numbers>
 #include <limits>
 
-
 namespace pt {
 
 double start_wrap_excess(const Sheet& sheet, const TensionRays& rays, std::span<const LoadPoint> loads,
