@@ -422,7 +422,7 @@ TEST(TearingStep, WouldTearAgreesWithTheStep) {
     for (const double side : {-1.0, 1.0}) {
       Finger f;
       f.vertex = test::vertex_at(s, Vec2(0.1, 0), Vec2(side, 0.1));
-      f.reaction = Vec3(0, 0, scale * threshold);
+      f.reaction = Vec3(0, 0, side * scale * threshold);  // the legs pulled apart
       s.fingers.push_back(f);
     }
     s.tears.resize(1);

@@ -24,18 +24,20 @@ PropagationParams propagation() {
   return p;
 }
 
-void hold(Sheet& s, const Vec2& at, const Vec2& side, double force) {
+// A finger holding the vertex at `at` (the copy on `side` of a lip) that pulls it out of the sheet's plane
+// with `force`: up (+z) for `up`, else down, as a trouser's legs are pulled apart.
+void hold(Sheet& s, const Vec2& at, const Vec2& side, double force, bool up) {
   Finger f;
   f.vertex = vertex_at(s, at, side);
   ASSERT_GE(f.vertex, 0);
-  f.reaction = Vec3(0, 0, force);
+  f.reaction = Vec3(0, 0, up ? force : -force);
   s.fingers.push_back(f);
 }
 
 }  // namespace
 
-// A trouser test: a slit from the bottom edge, the two legs held at the slit's mouth and pulled (only the
-// reactions' magnitudes enter). Both pulls are behind the tip (θ = 0): Er = (F_L + F_R)/e, so the tear
+// A trouser test: a slit from the bottom edge, the two legs held at the slit's mouth and pulled apart, one
+// up and one down. Both pulls are behind the tip (θ = 0): Er = (F_L + F_R)/e, so the tear
 // starts when each finger holds Ef · e / 2.
 TEST(TensionRayDecision, TrouserPullTearsAtEfTimesThicknessOverTwo) {
   Sheet s = slit_grid(0.2, 0.15, 10, 6, {{5, 3}});
@@ -43,8 +45,8 @@ TEST(TensionRayDecision, TrouserPullTearsAtEfTimesThicknessOverTwo) {
   const double ef = 2e4, threshold = ef * kThickness / 2;
   for (const double scale : {0.999, 1.001}) {
     s.fingers.clear();
-    hold(s, Vec2(0.1, 0), Vec2(-1, 0.1), scale * threshold);
-    hold(s, Vec2(0.1, 0), Vec2(1, 0.1), scale * threshold);
+    hold(s, Vec2(0.1, 0), Vec2(-1, 0.1), scale * threshold, true);
+    hold(s, Vec2(0.1, 0), Vec2(1, 0.1), scale * threshold, false);
     TensionRayDecisionScratch scratch;
     const PropagationDecision d =
         decide_by_tension_rays(s, tip, ef, false, propagation(), MembraneParams{}, TensionRayDecisionParams{}, scratch);
@@ -68,8 +70,8 @@ TEST(TensionRayDecision, TrouserPullTearsAtEfTimesThicknessOverTwo) {
 // which the load passes by.
 TEST(TensionRayDecision, StartsOnlyWhereTheLoadBetweenTheSidesPasses) {
   Sheet s = slit_grid(0.2, 0.15, 10, 6, {{5, 3}});
-  hold(s, Vec2(0.06, 0.025), Vec2::Zero(), 1.0);
-  hold(s, Vec2(0.14, 0.025), Vec2::Zero(), 1.0);
+  hold(s, Vec2(0.06, 0.025), Vec2::Zero(), 1.0, true);
+  hold(s, Vec2(0.14, 0.025), Vec2::Zero(), 1.0, false);
   TensionRayDecisionScratch scratch;
   const TensionRayDecisionParams params;
   auto excess_at = [&](const Vec2& at, const Vec2& side) {
@@ -91,4 +93,23 @@ TEST(TensionRayDecision, StartsOnlyWhereTheLoadBetweenTheSidesPasses) {
   EXPECT_GT(at_tip.direction.y(), 0.99) << "along the mediator, away from the fingers";
   const int32_t top = vertex_at(s, Vec2(0.1, 0.15));
   EXPECT_FALSE(decide_by_tension_rays(s, top, 10.0, true, propagation(), MembraneParams{}, params, scratch).propagate);
+}
+
+// The same trouser with both legs pulled the same way (the sheet held up by both): nothing pulls the sides
+// apart, so nothing tears, however large the forces.
+TEST(TensionRayDecision, LegsPulledTheSameWayDoNotTear) {
+  Sheet s = slit_grid(0.2, 0.15, 10, 6, {{5, 3}});
+  const int32_t tip = vertex_at(s, Vec2(0.1, 0.075));
+  hold(s, Vec2(0.1, 0), Vec2(-1, 0.1), 10.0, true);
+  hold(s, Vec2(0.1, 0), Vec2(1, 0.1), 10.0, true);
+  TensionRayDecisionScratch scratch;
+  const PropagationDecision same =
+      decide_by_tension_rays(s, tip, 2e4, false, propagation(), MembraneParams{}, TensionRayDecisionParams{}, scratch);
+  EXPECT_FALSE(same.griffith);
+  EXPECT_NEAR(same.energy_release, 0, 1e-9);
+  s.fingers[1].reaction = -s.fingers[1].reaction;
+  const PropagationDecision apart =
+      decide_by_tension_rays(s, tip, 2e4, false, propagation(), MembraneParams{}, TensionRayDecisionParams{}, scratch);
+  EXPECT_TRUE(apart.propagate);
+  EXPECT_NEAR(apart.energy_release, 20.0 / kThickness, 1e-6);
 }

@@ -41,11 +41,14 @@ struct Load {
 
 TensionRays rays_at(const Sheet& s, int32_t p, const std::vector<Load>& loads,
                     const Vec2& previous_direction = Vec2::Zero()) {
+  // Loads left of p (by x, or by the lip they hold) pull up and the others down, as a trouser's legs: the
+  // sides' summed reactions then differ by F_L + F_R.
   std::vector<LoadPoint> points;
   for (const Load& l : loads) {
     const int32_t v = vertex_at(s, l.at, l.side);
     EXPECT_GE(v, 0) << l.at.transpose();
-    points.push_back(LoadPoint{v, Vec3(0, 0, l.force)});  // only ‖R‖ counts
+    const double dx = l.side.x() != 0 ? l.side.x() : l.at.x() - s.verts.rest[p].x();
+    points.push_back(LoadPoint{v, Vec3(0, 0, dx < 0 ? l.force : -l.force)});
   }
   TensionRaysScratch scratch;
   TensionRays out;

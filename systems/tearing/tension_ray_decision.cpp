@@ -91,7 +91,7 @@ PropagationDecision decide_by_tension_rays(const Sheet& sheet, int32_t p, double
   compute_tension_rays(sheet.verts.rest, sheet.tris.piece, sheet.topo, p, scratch.loads, rp, scratch.rays, rays);
   if (rays.left_count == 0 || rays.right_count == 0) return d;
   d.angle = rays.theta;
-  d.energy_release = (rays.left_force + rays.right_force) * std::cos(0.5 * rays.theta) / propagation.thickness;
+  d.energy_release = rays.energy_release;
   d.griffith = std::isfinite(d.energy_release) && d.energy_release >= fracture_energy;
   if (!d.griffith) return d;
   if (is_start && !(start_wrap_excess(sheet, rays, scratch.loads, scratch) <= params.start_wrap)) {

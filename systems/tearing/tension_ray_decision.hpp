@@ -3,9 +3,10 @@
 // its shortest path in the torn pattern (systems/tearing/tension_rays.hpp), instead of the forces of the
 // point's own fan of triangles, which scale with the fan's size.
 //
-// - Er = (F_L + F_R) cos(θ/2) / e (eq. 6's form) with F_L, F_R the fingers' reactions on either side, so it
-//   does not depend on the mesh; Griffith (eq. 1): propagate iff Er ≥ Ef.
-// - t = −normalize(u_L + u_R), O'Keefe's bisector: for two fingers, the tangent of the hyperbola
+// - Er = ‖P_L − P_R‖ cos(θ/2) / e (eq. 6's form) with P_L, P_R the fingers' summed reactions on either
+//   side, what pulls the sides apart, so it does not depend on the mesh; Griffith (eq. 1): propagate iff
+//   Er ≥ Ef.
+// - t = ±normalize(u_L + u_R), O'Keefe's bisector: for two fingers, the tangent of the hyperbola
 //   |PA| − |PB| = const. Where the rays give no direction into the material (one side empty, the pulls
 //   opposite, t out of the sheet) t is the crack driving force, the J-vector (systems/material_force.hpp).
 // - At an inward corner (a notch, the kink of an old tear) a tear starts only where the load between the

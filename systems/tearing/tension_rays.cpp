@@ -67,6 +67,7 @@ double wedge_angle(const PatternPaths& paths, const PatternPath& path, const Top
 struct SideSums {
   Vec2 left = Vec2::Zero(), right = Vec2::Zero();
   double left_force = 0, right_force = 0;
+  Vec3 left_pull = Vec3::Zero(), right_pull = Vec3::Zero();
   int32_t left_count = 0, right_count = 0;
 };
 
@@ -76,10 +77,12 @@ SideSums sum_sides(const std::vector<LoadRay>& rays) {
     if (r.side > 0) {
       s.left += r.weight * r.direction;
       s.left_force += r.weight;
+      s.left_pull += r.reaction;
       ++s.left_count;
     } else if (r.side < 0) {
       s.right += r.weight * r.direction;
       s.right_force += r.weight;
+      s.right_pull += r.reaction;
       ++s.right_count;
     }
   }
@@ -128,6 +131,7 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
     LoadRay r;
     r.load = j;
     r.weight = w;
+    r.reaction = l.reaction;
     out.rays.push_back(r);
     scratch.targets.push_back(l.vertex);
   }
@@ -205,12 +209,15 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
     return;
   }
 
-  // Eq. 6 and O'Keefe's rule: t = ±normalize(u_L + u_R), Er = (F_L + F_R) cos(θ/2) / e.
+  // Eq. 6 and O'Keefe's rule: t = ±normalize(u_L + u_R), Er = ‖P_L − P_R‖ cos(θ/2) / e with P the sides'
+  // summed reactions: what pulls the two sides apart. Equal and opposite pulls give eq. 6's F_L + F_R; a
+  // load both sides carry the same way (a sheet held up against its weight) opens nothing.
   const Vec2 ul = s.left.normalized(), ur = s.right.normalized();
   out.left_direction = ul;
   out.right_direction = ur;
   out.theta = std::atan2(std::abs(cross(ul, ur)), ul.dot(ur));
-  out.energy_release = (s.left_force + s.right_force) * std::cos(0.5 * out.theta) / params.thickness;
+  out.opening_force = (s.left_pull - s.right_pull).norm();
+  out.energy_release = out.opening_force * std::cos(0.5 * out.theta) / params.thickness;
   const Vec2 sum = ul + ur;
   const double sum_norm = sum.norm();
   if (!(sum_norm > params.opposite_tolerance)) {

@@ -8,7 +8,9 @@
 // The g_j are split in two sides by eq. 4's iterated line through p, each side gives a mean direction
 // u_L, u_R, and the tear runs along their bisector, t = ±normalize(u_L + u_R): O'Keefe's rule, which for
 // two fingers A, B is the tangent at p of the hyperbola |PA| − |PB| = const (O'Keefe 1994). A tip keeps
-// its way along that line; a start runs away from the loads unless only towards them is into the material. Er = (F_L + F_R) cos(θ/2) / e, θ the angle between u_L and u_R (eq. 6).
+// its way along that line; a start runs away from the loads unless only towards them is into the
+// material. Er = ‖P_L − P_R‖ cos(θ/2) / e (eq. 6's form), P_L, P_R the sides' summed reactions and θ the
+// angle between u_L and u_R: equal and opposite pulls give eq. 6's (F_L + F_R).
 // Only rest positions, the boundary and the reactions enter: on two meshes of the same torn outline
 // the result is the same.
 #pragma once
@@ -51,6 +53,7 @@ struct LoadRay {
   int32_t load = -1;               // index into the loads given
   Vec2 direction = Vec2::Zero();   // g_j (unit, pattern)
   double weight = 0;               // w_j = ‖R_j‖
+  Vec3 reaction = Vec3::Zero();    // R_j
   double path_length = 0;          // m
   int32_t first_corner = -1;       // vertex the path first bends at, −1 when straight
   double wedge_angle = 0;          // of g_j in p's interior angle, from the edge to boundary_next, rad
@@ -67,9 +70,10 @@ struct TensionRays {
   // F_L = Σ_left w_j, F_R = Σ_right w_j: the magnitudes, as eq. 6 sums ‖F_l‖ + ‖F_r‖ of the paper's
   // virtual fingers, so two fingers on one side pulling along different paths add up.
   double left_force = 0, right_force = 0;
+  double opening_force = 0;        // ‖Σ_left R_j − Σ_right R_j‖: what pulls the two sides apart, N
   int32_t left_count = 0, right_count = 0;
   Vec2 left_direction = Vec2::Zero(), right_direction = Vec2::Zero();  // u_L, u_R (unit)
-  double energy_release = 0;       // Er = (F_L + F_R) cos(θ/2) / e, J/m²
+  double energy_release = 0;       // Er = ‖P_L − P_R‖ cos(θ/2) / e, J/m²
   Vec2 bisector = Vec2::Zero();    // final b of the split (unit)
   int32_t iterations = 0;          // split iterations after b0
   int32_t other_piece = 0;         // load points ignored: on another piece or released (vertex < 0)
