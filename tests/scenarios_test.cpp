@@ -1,8 +1,7 @@
 // The paper's result figures as scenario files (scenarios/), checked for what the paper claims: where
 // tears start, where they run (the mediator, the hyperbola), how many there are, and what the fingers hold.
 // Every scenario runs with the mesh invariants (check_mesh_invariants, systems/topology.hpp) checked after
-// every remesh. The
-// history of these measurements with the fan rule and the material force is in
+// every remesh. The history of these measurements with the fan rule and the material force is in
 // bench/results/2026-12-01-path-claims-history.txt; the zigzag and branching claims are not met yet
 // (docs/tearing.md, "Known gaps") and their tests stay disabled.
 #include "engine/scenario.hpp"
