@@ -2,7 +2,7 @@
 //   papertear run SCENARIO [--set KEY=VALUE]... [--out DIR] [--frames N] [--threads N] [--obj] [--svg] [--png]
 //   papertear check SCENARIO [--set KEY=VALUE]...
 //   papertear batch SCENARIO --sheets N [--set KEY=VALUE]... [--threads N] [--frames N] [--out DIR]
-//                   [--vary KEY=FROM:TO]...
+//                   [--vary KEY=FROM:TO]... [--fixed-seeds]
 // Exit status: 0 success; 2 invalid input (one line on stderr naming the file and the JSON path or the
 // geometric problem; nothing written); 1 internal failure (one line on stderr; never a crash).
 #include "engine/batch.hpp"
@@ -64,6 +64,7 @@ struct BatchCli {
   int32_t threads = 2;
   int32_t frames = -1;
   std::vector<std::string> vary;
+  bool fixed_seeds = false;
 };
 
 // A progress bar on a terminal only: logs and pipes stay quiet.
@@ -249,6 +250,7 @@ int batch_command(const BatchCli& cli) {
   options.sheets = cli.sheets;
   options.threads = cli.threads;
   options.frames = cli.frames;
+  options.fixed_seeds = cli.fixed_seeds;
   for (const std::string& v : cli.vary) options.vary.push_back(pt::parse_variation(v));
   // Every sheet's variation is checked before any runs, so a bad --vary range fails fast with exit 2.
   for (int32_t i = 0; i < options.sheets; ++i) {
@@ -326,7 +328,11 @@ int main(int argc, char** argv) {
   batch_cmd->add_option("--frames", batch.frames, "frames per sheet (default: the scenario's)")
       ->check(CLI::Range(1, 10'000'000));
   batch_cmd->add_option("--out", batch.out, "output directory (default: out/<name>-batch)");
-  batch_cmd->add_option("--vary", batch.vary, "KEY=FROM:TO, spread linearly over the sheets (repeatable)");
+  std::string vary_help = "KEY=FROM:TO, spread linearly over the sheets (repeatable); KEY is one of";
+  for (const std::string& k : pt::variation_keys()) vary_help += " " + k;
+  batch_cmd->add_option("--vary", batch.vary, vary_help);
+  batch_cmd->add_flag("--fixed-seeds", batch.fixed_seeds,
+                      "every sheet keeps the scenario's fibre and mesh seeds: a sweep varies only what --vary names");
 
   try {
     app.parse(argc, argv);

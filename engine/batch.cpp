@@ -16,6 +16,17 @@
 
 namespace pt {
 
+const std::vector<std::string>& variation_keys() {
+  static const std::vector<std::string> keys = {
+      "material.thickness",  "material.density",      "material.young",        "material.poisson",
+      "material.bending_scale", "material.tip_damage", "material.fracture_c",  "material.speed",
+      "material.max_step",   "material.damping",      "material.fiber_scale",  "material.membrane_scale",
+      "material.strain_limit", "detail.sigma",         "detail.omega",          "sim.substeps",
+      "sim.iterations",      "sim.relaxation_radius", "tearing.radius",        "tearing.snap",
+      "finger_speed"};
+  return keys;
+}
+
 Variation parse_variation(const std::string& text) {
   const auto eq = text.find('=');
   const auto colon = text.find(':', eq == std::string::npos ? 0 : eq);
@@ -23,16 +34,8 @@ Variation parse_variation(const std::string& text) {
     throw InputError("--vary " + text + ": expected KEY=FROM:TO");
   Variation v;
   v.key = text.substr(0, eq);
-  static const char* known[] = {"material.thickness", "material.density",   "material.young",
-                                "material.poisson",   "material.bending_scale", "material.tip_damage",
-                                "material.fracture_c", "material.speed",    "material.max_step",
-                                "material.damping",   "material.fiber_scale", "material.membrane_scale",
-                                "material.strain_limit", "detail.sigma",
-                                "detail.omega",       "sim.substeps",       "sim.iterations",
-                                "sim.relaxation_radius", "tearing.radius",  "tearing.snap",
-                                "finger_speed"};
   bool ok = false;
-  for (const char* k : known) ok = ok || v.key == k;
+  for (const std::string& k : variation_keys()) ok = ok || v.key == k;
   if (!ok) throw InputError("--vary " + text + ": unknown key '" + v.key + "'");
   try {
     size_t used = 0;
@@ -104,7 +107,7 @@ size_t sheet_bytes(const Sheet& s) {
 Scenario batch_sheet_scenario(const Scenario& base, const BatchOptions& options, int32_t index) {
   Scenario s = base;
   // Sheet 0 is the scenario itself; the others get their own fibres and mesh (splitmix-style spread).
-  if (index > 0) {
+  if (index > 0 && !options.fixed_seeds) {
     uint64_t z = base.material.fiber_seed + 0x9E3779B97F4A7C15ull * static_cast<uint64_t>(index);
     z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
     z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
@@ -125,6 +128,8 @@ BatchResult run_batch(const Scenario& base, const BatchOptions& options,
   result.sheets = options.sheets;
   result.threads = options.threads;
   result.frames = options.frames >= 0 ? options.frames : base.sim.frames;
+  result.vary = options.vary;
+  result.fixed_seeds = options.fixed_seeds;
   result.outcomes.resize(options.sheets);
   std::vector<TimingReport> reports(options.sheets);
   std::vector<size_t> bytes(options.sheets, 0), solver_bytes(options.sheets, 0);
@@ -204,6 +209,10 @@ void write_batch_json(const BatchResult& r, const std::string& scenario_name, co
   j["sheets"] = r.sheets;
   j["threads"] = r.threads;
   j["frames"] = r.frames;
+  nlohmann::ordered_json vary = nlohmann::json::array();
+  for (const Variation& v : r.vary) vary.push_back({{"key", v.key}, {"from", v.from}, {"to", v.to}});
+  j["vary"] = vary;
+  j["fixed_seeds"] = r.fixed_seeds;
   j["wall_s"] = r.wall_s;
   j["sheet_frames_per_s"] = r.sheet_frames_per_s;
   nlohmann::ordered_json timings, throughput;
@@ -221,10 +230,13 @@ void write_batch_json(const BatchResult& r, const std::string& scenario_name, co
   nlohmann::ordered_json hashes = nlohmann::json::array(), outcomes = nlohmann::json::array();
   for (const SheetOutcome& o : r.outcomes) {
     hashes.push_back(o.hash);
+    nlohmann::ordered_json values = nlohmann::json::object();  // the varied keys' values for this sheet
+    for (size_t k = 0; k < r.vary.size() && k < o.varied.size(); ++k) values[r.vary[k].key] = o.varied[k];
     outcomes.push_back({{"index", o.index},
                         {"fiber_seed", o.fiber_seed},
                         {"mesh_seed", o.mesh_seed},
                         {"varied", o.varied},
+                        {"values", values},
                         {"triangles", o.triangles},
                         {"tear_length", o.tear_length},
                         {"tears", o.tears},
@@ -246,14 +258,23 @@ void write_batch_json(const BatchResult& r, const std::string& scenario_name, co
 
 void write_batch_csv(const BatchResult& r, const std::string& path) {
   std::ofstream f(path);
-  f << "index,fiber_seed,mesh_seed,triangles,tear_length_m,tears,pieces,max_finger_force_n,frame_ms,hash,status\n";
+  // One column per varied key, named by it, after the fixed columns.
+  f << "index,fiber_seed,mesh_seed,triangles,tear_length_m,tears,pieces,max_finger_force_n,frame_ms,hash,status";
+  for (const Variation& v : r.vary) f << "," << v.key;
+  f << "\n";
   for (const SheetOutcome& o : r.outcomes) {
     char line[512];
-    std::snprintf(line, sizeof line, "%d,%llu,%llu,%d,%.9g,%d,%d,%.9g,%.6g,%s,\"%s\"\n", o.index,
+    std::snprintf(line, sizeof line, "%d,%llu,%llu,%d,%.9g,%d,%d,%.9g,%.6g,%s,\"%s\"", o.index,
                   static_cast<unsigned long long>(o.fiber_seed), static_cast<unsigned long long>(o.mesh_seed),
                   o.triangles, o.tear_length, o.tears, o.pieces, o.max_finger_force, o.frame_ms, o.hash.c_str(),
                   o.status.c_str());
     f << line;
+    for (const double value : o.varied) {
+      char cell[40];
+      std::snprintf(cell, sizeof cell, ",%.9g", value);
+      f << cell;
+    }
+    f << "\n";
   }
 }
 

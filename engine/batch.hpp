@@ -20,12 +20,18 @@ struct Variation {
 // Parses "KEY=FROM:TO"; throws InputError naming the argument on a bad key or number.
 Variation parse_variation(const std::string& text);
 
+// The keys --vary accepts, in the order `batch --help` lists them.
+const std::vector<std::string>& variation_keys();
+
 struct BatchOptions {
   int32_t sheets = 8;
   int32_t threads = 2;
   int32_t frames = -1;               // −1: the scenario's
   std::vector<Variation> vary;
   int32_t threads_per_sheet = 1;     // each sheet's own arena (nested parallelism for big sheets)
+  // Every sheet keeps the scenario's fibre and mesh seeds, so a sweep varies only what --vary names
+  // (otherwise sheet i > 0 gets seeds derived from i).
+  bool fixed_seeds = false;
 };
 
 struct SheetOutcome {
@@ -50,6 +56,8 @@ struct SystemThroughput {
 
 struct BatchResult {
   int32_t sheets = 0, threads = 0, frames = 0;
+  std::vector<Variation> vary;                  // what was varied (SheetOutcome::varied in this order)
+  bool fixed_seeds = false;
   double wall_s = 0, sheet_frames_per_s = 0;
   std::array<TimingStat, 11> systems;           // kSystemNames order, per frame over all sheets
   std::array<SystemThroughput, 11> throughput;  // kSystemNames order
