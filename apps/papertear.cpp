@@ -6,6 +6,7 @@
 // Exit status: 0 success; 2 invalid input (one line on stderr naming the file and the JSON path or the
 // geometric problem; nothing written); 1 internal failure (one line on stderr; never a crash).
 #include "engine/batch.hpp"
+#include "engine/version.hpp"
 #include "engine/result_writer.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
@@ -296,7 +297,7 @@ int batch_command(const BatchCli& cli) {
 
 int main(int argc, char** argv) {
   CLI::App app{"papertear: paper torn by fingers (Schreck et al., Interactive paper tearing, EG 2017)"};
-  app.set_version_flag("--version", "papertear 0.1.0");
+  app.set_version_flag("--version", std::string("papertear ") + pt::version());
   app.require_subcommand(1);
 
   RunOptions run;

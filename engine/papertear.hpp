@@ -14,4 +14,5 @@
 #include "engine/result_writer.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
+#include "engine/version.hpp"
 #include "systems/meshing.hpp"

@@ -88,12 +88,13 @@ const pt::Simulation& sim_of(const py::object& self) { return *py_of(self).sim; 
 
 PYBIND11_MODULE(papertear, m) {
   m.doc() = "papertear: paper torn by fingers (Schreck, Rohmer & Hahmann, Interactive paper tearing, 2017)";
+  m.attr("__version__") = pt::version();
 
   // "<file>: <json path>: <problem>"; both are ValueErrors.
   py::register_exception<pt::InputError>(m, "InputError", PyExc_ValueError);
   py::register_exception<pt::GeometryError>(m, "GeometryError", PyExc_ValueError);
 
-  py::class_<pt::Scenario>(m, "Scenario", "A scenario (DESIGN §6), loaded and validated.")
+  py::class_<pt::Scenario>(m, "Scenario", "A scenario (docs/scenario-format.md), loaded and validated.")
       .def_readwrite("name", &pt::Scenario::name)
       .def_readonly("path", &pt::Scenario::path)
       .def_readonly("description", &pt::Scenario::description)

@@ -22,7 +22,8 @@ file(REMOVE_RECURSE ${WORK_DIR})
 run(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix} --component Unspecified)
 file(GLOB_RECURSE config RELATIVE ${prefix} ${prefix}/*/papertearConfig.cmake)
 foreach(f include/papertear/papertear.hpp include/papertear/engine/simulation.hpp include/papertear/engine/api.hpp
-          include/papertear/components/sheet.hpp ${config})
+          include/papertear/components/sheet.hpp include/papertear/engine/version.hpp
+          share/papertear/scenarios/start-inward.json ${config})
   if(NOT config OR NOT EXISTS ${prefix}/${f})
     file(GLOB_RECURSE installed RELATIVE ${prefix} ${prefix}/*)
     message(FATAL_ERROR "not installed: ${f}\ninstalled: ${installed}")
@@ -32,7 +33,9 @@ endforeach()
 run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/consumer -B ${WORK_DIR}/build -G ${GENERATOR}
     -DCMAKE_BUILD_TYPE=${BUILD_TYPE} -DCMAKE_CXX_COMPILER=${CXX_COMPILER} -DCMAKE_PREFIX_PATH=${prefix})
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
-run(${WORK_DIR}/build/tear ${SOURCE_DIR}/scenarios/start-inward.json)
+# The consumer's CMakeLists.txt chooses no C++ standard: the target brings C++20. The scenario is the
+# installed one.
+run(${WORK_DIR}/build/tear ${prefix}/share/papertear/scenarios/start-inward.json)
 message("${run_out}")
 if(NOT run_out MATCHES "tears [0-9]+, pieces [1-9][0-9]*\nhash [0-9a-f]+\n")
   message(FATAL_ERROR "unexpected output of the consumer:\n${run_out}")

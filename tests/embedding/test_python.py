@@ -30,6 +30,7 @@ class Bindings(unittest.TestCase):
         cls.sim = papertear.Simulation(SCENARIO, threads=2)
 
     def test_import(self):
+        self.assertRegex(papertear.__version__, r"^[0-9]+\.[0-9]+\.[0-9]+$")
         self.assertTrue(issubclass(papertear.InputError, ValueError))
         self.assertTrue(issubclass(papertear.GeometryError, ValueError))
         self.assertEqual(papertear.load_scenario(SCENARIO).name, "start-inward")
