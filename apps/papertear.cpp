@@ -217,7 +217,8 @@ int run_command(const RunOptions& opt) {
                       plural(obj_writer->carved_textures_written(), "carved texture") + ")");
   }
   // result.json last: its presence means the run completed.
-  const bool finite = pt::write_result_json(sim, result_path.string());
+  std::string error;
+  const bool ok = pt::write_result_json(sim, result_path.string(), &error);
   written.insert(written.begin(), result_path.string());
   out.commit();
 
@@ -228,8 +229,8 @@ int run_command(const RunOptions& opt) {
               plural(sim.threads(), "thread").c_str());
   for (const std::string& w : written) std::printf("wrote %s\n", w.c_str());
   std::fflush(stdout);
-  if (!finite) {
-    print_error(result_path.string() + ": non-finite numbers in the simulation state (status \"error\")");
+  if (!ok) {
+    print_error(result_path.string() + ": status \"error\": " + error);
     return kExitInternal;
   }
   return kExitOk;

@@ -36,6 +36,13 @@ constexpr double kMaxGravity = 10'000;     // m/s²
 constexpr double kMaxKeyTime = 1e7;        // s
 constexpr double kMaxGrip = 1e4;           // N
 constexpr int64_t kMaxFileBytes = 64ll << 20;
+// What a sheet can physically be (README, "Scenario format"). Beyond these the implicit solver refuses
+// every substep (the sheet stands still) or the state overflows: no result, so the input is refused.
+constexpr double kMinThickness = 1e-6, kMaxThickness = 0.01;  // m: cling film to thick board
+constexpr double kMinDensity = 1, kMaxDensity = 25'000;        // kg/m³: aerogel to osmium
+constexpr double kMinYoung = 1e3, kMaxYoung = 1e12;            // Pa: a soft gel to diamond
+constexpr double kMaxBendingScale = 1e4;                       // of paper's E e³ / 12(1 − ν²)
+constexpr double kMinFps = 1;                                  // frames/s: a frame lasts at most a second
 constexpr int kMaxDepth = 32;
 
 std::string file_label(const std::string& path) { return path.empty() ? "<scenario>" : path; }
@@ -115,6 +122,15 @@ void check_range(const std::string& file, const std::string& path, double v, dou
   check_finite(file, path, v);
   if (v < lo || v > hi || (hi_open && v == hi))
     fail(file, path, "must be in [" + fmt(lo) + ", " + fmt(hi) + (hi_open ? ")" : "]") + ", got " + fmt(v));
+}
+
+// A physical constant within what a sheet can be; `unit` is shown after the range ("" for factors).
+void check_plausible(const std::string& file, const std::string& path, double v, double lo, double hi,
+                     const std::string& unit) {
+  check_finite(file, path, v);
+  if (v < lo || v > hi)
+    fail(file, path, "outside the plausible range [" + fmt(lo) + ", " + fmt(hi) + "]" + (unit.empty() ? "" : " " + unit) +
+                         ", got " + fmt(v));
 }
 
 void check_vec(const std::string& file, const std::string& path, const double* v, int n, double max_abs) {
@@ -502,10 +518,14 @@ void validate_scenario(const Scenario& s) {
   // Material.
   const Material& m = s.material;
   check_positive(file, "material.thickness", m.thickness);
+  check_plausible(file, "material.thickness", m.thickness, kMinThickness, kMaxThickness, "m");
   check_positive(file, "material.density", m.density);
+  check_plausible(file, "material.density", m.density, kMinDensity, kMaxDensity, "kg/m^3");
   check_positive(file, "material.young", m.young);
+  check_plausible(file, "material.young", m.young, kMinYoung, kMaxYoung, "Pa");
   check_range(file, "material.poisson", m.poisson, 0, 0.5, true);
   check_non_negative(file, "material.bending_scale", m.bending_scale);
+  check_plausible(file, "material.bending_scale", m.bending_scale, 0, kMaxBendingScale, "");
   check_range(file, "material.membrane_scale", m.membrane_scale, 0, 1, false);
   if (!(m.membrane_scale > 0)) fail(file, "material.membrane_scale", "must be > 0 (a fraction of young, at most 1)");
   check_positive(file, "material.strain_limit", m.strain_limit);
@@ -528,7 +548,7 @@ void validate_scenario(const Scenario& s) {
 
   // Sim.
   check_positive(file, "sim.fps", s.sim.fps);
-  if (s.sim.fps > kMaxFps) fail(file, "sim.fps", "absurd size " + fmt(s.sim.fps) + " (at most " + fmt(kMaxFps) + ")");
+  check_plausible(file, "sim.fps", s.sim.fps, kMinFps, kMaxFps, "frames/s");
   check_int(file, "sim.substeps", s.sim.substeps, 1, kMaxSubsteps);
   check_int(file, "sim.frames", s.sim.frames, 1, kMaxFrames);
   check_int(file, "sim.iterations", s.sim.iterations, 1, kMaxIterations);

@@ -501,3 +501,20 @@ TEST_F(Cli, TexturedObjShowsTheCarvedEdge) {
 }
 
 }  // namespace
+
+// ---- issue 27: the adversarial probe ----
+
+// Constants no sheet could have: exit 2 naming the key, nothing written (before: exit 0, status "ok", every
+// substep refused; or exit 1 with a non-finite state).
+TEST_F(Cli, ImplausibleConstantsAreExit2) {
+  const fs::path g = good();
+  for (const std::string setting : {"material.young=1e308", "material.thickness=1e308", "sim.fps=1e-300",
+                                    "material.bending_scale=1e300", "material.density=1e300"}) {
+    const Result r = run({"run", g.string(), "--set", setting, "--out", "o"});
+    expect_input_error(r, setting);
+    EXPECT_NE(r.err.find(setting.substr(0, setting.find('=')) + ": outside the plausible range"), std::string::npos)
+        << r.err;
+    EXPECT_FALSE(fs::exists(dir_ / "o")) << setting;
+    expect_input_error(run({"check", g.string(), "--set", setting}), "check " + setting);
+  }
+}

@@ -7,6 +7,7 @@
 // Also the soak (DISABLED_: run by `make soak` / scripts/soak.sh with --gtest_also_run_disabled_tests):
 // 10 000 frames of tests/soak/soak.json, NaN check every frame, per-1000-frame frame time, triangle count
 // and memory (getrusage peak RSS).
+#include "engine/result_writer.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "systems/meshing.hpp"
@@ -14,6 +15,7 @@
 #include "systems/topology.hpp"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <sys/resource.h>
 
@@ -24,6 +26,8 @@
 #include <cstdlib>
 #include <fstream>
 #include <functional>
+#include <iterator>
+#include <limits>
 #include <numbers>
 #include <sstream>
 #include <string>
@@ -472,4 +476,34 @@ TEST(Soak, DISABLED_TenThousandFrames) {
   std::fputs(rep.str().c_str(), stdout);
   if (env_report) std::ofstream(env_report) << rep.str();
   EXPECT_TRUE(sim.invariant_violations().empty());
+}
+
+// Issue 27: a run whose solver refuses (nearly) every substep is not a result: status "error" with the reason
+// (before: "ok" while 30 of 30 substeps were refused and the sheet never moved). Inputs that do this are
+// refused at validation, so the material is changed behind its back, as a tool with mutable_sheet() could.
+TEST(Hostile, SolverRefusingEverySubstepIsAnError) {
+  Simulation sim(parse_scenario(scene("stuck", pair_apart(0.03, 0.1, 1.5), 3), "stuck.json"));
+  sim.mutable_sheet().material.young = 1e200;  // the implicit solver cannot factorise this
+  for (int f = 0; f < 3; ++f) sim.step();
+  sim.flush();
+  ASSERT_GE(sim.solver_stats().failures, 3 * 10);
+  nlohmann::ordered_json doc;
+  std::string error;
+  EXPECT_FALSE(build_result_json(sim, doc, &error));
+  EXPECT_EQ(doc["status"], "error");
+  ASSERT_TRUE(doc.contains("error"));
+  EXPECT_EQ(doc["error"], error);
+  EXPECT_EQ(error.rfind("the solver refused ", 0), 0u) << error;
+  EXPECT_NE(error.find(" of the run's 30 substeps"), std::string::npos) << error;
+  EXPECT_EQ(std::next(doc.begin())->get<std::string>(), "error");  // "status" right after "scenario"
+  EXPECT_EQ(std::next(doc.begin(), 2).key(), "error");
+  EXPECT_EQ(error.rfind(solver_failure(sim), 0), 0u) << error;  // the solver's reason first
+  // A healthy run of the same scene: no reason, status "ok".
+  Simulation good(parse_scenario(scene("moving", pair_apart(0.03, 0.1, 1.5), 3), "moving.json"));
+  for (int f = 0; f < 3; ++f) good.step();
+  good.flush();
+  EXPECT_EQ(solver_failure(good), "");
+  EXPECT_TRUE(build_result_json(good, doc, &error));
+  EXPECT_EQ(doc["status"], "ok");
+  EXPECT_FALSE(doc.contains("error"));
 }

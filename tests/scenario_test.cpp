@@ -9,6 +9,7 @@
 #include <fstream>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -478,6 +479,36 @@ TEST(BadInput, UnsupportedVersion) {
   const std::string message = error_of_text(
       R"({"version": 2, "sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})", "x.json");
   EXPECT_NE(message.find("version: unsupported scenario version 2"), std::string::npos) << message;
+}
+
+// Issue 27: constants no sheet could have are refused at input, naming the key, rather than left to a solver
+// that refuses every substep or a state that overflows (README, "Scenario format": the plausible ranges).
+TEST(BadInput, ImplausiblePhysicalConstants) {
+  const std::string file = std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json";
+  for (const auto& [setting, error] : std::vector<std::pair<std::string, std::string>>{
+           {"material.young=1e308", "material.young: outside the plausible range [1000, 1e+12] Pa, got 1e+308"},
+           {"material.young=10", "material.young: outside the plausible range"},
+           {"material.thickness=1e308", "material.thickness: outside the plausible range [1e-06, 0.01] m, got 1e+308"},
+           {"material.thickness=1e-9", "material.thickness: outside the plausible range"},
+           {"material.density=1e300", "material.density: outside the plausible range [1, 25000] kg/m^3, got 1e+300"},
+           {"material.bending_scale=1e300", "material.bending_scale: outside the plausible range [0, 10000], got 1e+300"},
+           {"sim.fps=1e-300", "sim.fps: outside the plausible range [1, 100000] frames/s, got 1e-300"},
+           {"sim.fps=0.5", "sim.fps: outside the plausible range"}}) {
+    try {
+      pt::load_scenario(file, {setting});
+      ADD_FAILURE() << setting << " accepted";
+    } catch (const pt::InputError& e) {
+      const std::string message = e.what();
+      EXPECT_EQ(message.rfind(file + ": ", 0), 0u) << message;
+      EXPECT_NE(message.find(error), std::string::npos) << setting << " → " << message;
+      EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    }
+  }
+  // The ends of the ranges are sheets too.
+  EXPECT_NO_THROW(pt::load_scenario(file, {"material.young=1e12", "material.thickness=0.01", "material.density=1",
+                                           "material.bending_scale=0", "sim.fps=1"}));
+  EXPECT_NO_THROW(pt::load_scenario(file, {"material.young=1000", "material.thickness=1e-6",
+                                           "material.density=25000", "material.bending_scale=1e4", "sim.fps=1e5"}));
 }
 
 }  // namespace
