@@ -507,3 +507,40 @@ TEST(Hostile, SolverRefusingEverySubstepIsAnError) {
   EXPECT_EQ(doc["status"], "ok");
   EXPECT_FALSE(doc.contains("error"));
 }
+
+// Issue 27: the interactive API refuses a finger that does not exist and a target that is not a place
+// (before: NaN, inf and 1e300 were keyed; 999 threw "vector::_M_range_check", −1 showed 18446744073709551615).
+TEST(Hostile, MoveFingerRefusesBadFingersAndTargets) {
+  Simulation sim(parse_scenario(scene("api", pair_apart(0.03, 0.1, 1.5), 3), "api.json"));
+  const auto message = [&](const std::function<void()>& call) -> std::string {
+    try {
+      call();
+    } catch (const InputError& e) {
+      return e.what();
+    } catch (const std::exception& e) {
+      return std::string("wrong exception type: ") + e.what();
+    }
+    return "no error";
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(message([&] { sim.move_finger(999, Vec3(0, 0, 0)); }),
+            "move_finger: no finger 999 (the sheet has fingers 0 to 1)");
+  EXPECT_EQ(message([&] { sim.move_finger(-1, Vec3(0, 0, 0)); }),
+            "move_finger: no finger -1 (the sheet has fingers 0 to 1)");
+  EXPECT_EQ(message([&] { sim.release_finger(2); }), "release_finger: no finger 2 (the sheet has fingers 0 to 1)");
+  for (const Vec3& bad : {Vec3(nan, 0, 0), Vec3(0, inf, 0), Vec3(0, 0, -inf), Vec3(1e300, 0, 0), Vec3(0, -1001, 0)}) {
+    const std::string m = message([&] { sim.move_finger(1, bad); });
+    EXPECT_EQ(m.rfind("move_finger: finger 1 (B): target ", 0), 0u) << m;
+  }
+  EXPECT_NE(message([&] { sim.move_finger(0, Vec3(nan, 0, 0)); }).find("not a finite point"), std::string::npos);
+  EXPECT_NE(message([&] { sim.move_finger(0, Vec3(1e300, 0, 0)); }).find("at most 1000 m"), std::string::npos);
+  const std::string before = sim.state_hash();
+  sim.step();  // the refused targets left no key behind
+  std::string where;
+  EXPECT_TRUE(all_finite(sim.sheet(), where)) << where;
+  for (const Finger& f : sim.sheet().fingers)
+    for (const FingerKey& k : f.keys) EXPECT_TRUE(k.position.allFinite() && k.position.norm() < 1) << f.name;
+  EXPECT_NE(sim.state_hash(), before);
+  EXPECT_EQ(message([&] { sim.move_finger(0, Vec3(0.035, 0.09, 0.02)); }), "no error");
+  EXPECT_EQ(message([&] { sim.move_finger(1, Vec3(0, -1000, 0)); }), "no error");  // far, but a place
+}
