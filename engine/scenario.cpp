@@ -626,7 +626,8 @@ void validate_scenario(const Scenario& s) {
       check_vec(file, child(kp, "translate"), key.translate.data(), 3, kMaxCoordinate);
       check_finite(file, child(kp, "rotate_deg"), key.rotate_deg);
       check_vec(file, child(kp, "axis"), key.axis.data(), 3, std::numeric_limits<double>::max());
-      if (!(key.axis.norm() > 1e-12)) fail(file, child(kp, "axis"), "rotation axis must be non-zero");
+      // Any finite non-zero vector is a direction (apply_hand_motion scales it before normalising).
+      if (!(key.axis.cwiseAbs().maxCoeff() > 0)) fail(file, child(kp, "axis"), "rotation axis must be non-zero");
     }
     validate_key_times(file, child(p, "keys"), times);
   }

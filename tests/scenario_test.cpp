@@ -511,4 +511,13 @@ TEST(BadInput, ImplausiblePhysicalConstants) {
                                            "material.density=25000", "material.bending_scale=1e4", "sim.fps=1e5"}));
 }
 
+// Issue 27: an axis whose norm overflows (or underflows) is still a direction.
+TEST(Scenario, HandAxisOfAnyFiniteSize) {
+  for (const char* axis : {"[1e200, 1e200, 0]", "[1e-200, 0, 1e-200]", "[1e308, -1e308, 1e308]"}) {
+    const std::string text = std::string(R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}],
+        "hands": [{"name": "L", "fingers": ["A"], "keys": [[0, {"rotate_deg": 10, "axis": )") + axis + "}]]}]}";
+    EXPECT_NO_THROW(pt::parse_scenario(text, "x.json")) << axis;
+  }
+}
+
 }  // namespace
