@@ -504,6 +504,8 @@ TEST_F(Cli, TexturedObjShowsTheCarvedEdge) {
 
 // ---- issue 27: the adversarial probe ----
 
+// ---- issue 27: the adversarial probe ----
+
 // Constants no sheet could have: exit 2 naming the key, nothing written (before: exit 0, status "ok", every
 // substep refused; or exit 1 with a non-finite state).
 TEST_F(Cli, ImplausibleConstantsAreExit2) {
@@ -517,4 +519,20 @@ TEST_F(Cli, ImplausibleConstantsAreExit2) {
     EXPECT_FALSE(fs::exists(dir_ / "o")) << setting;
     expect_input_error(run({"check", g.string(), "--set", setting}), "check " + setting);
   }
+}
+
+// check and run agree on a finger just outside the outline, and both name its JSON path (before: check
+// exit 0, run exit 2 "point (-1e-10, 0.14) is outside the outline").
+TEST_F(Cli, CheckAndRunAgreeOnAFingerJustOutside) {
+  std::string text = kGood;
+  text.replace(text.find("[0.02, 0.14]"), 12, "[-1e-10, 0.14]");
+  write_file(dir_ / "edge.json", text);
+  for (const char* command : {"check", "run"}) {
+    const Result r = run({command, "edge.json"});
+    expect_input_error(r, command);
+    EXPECT_NE(r.err.find("edge.json: fingers[0].at: finger A at (-1e-10, 0.14) is outside the sheet"),
+              std::string::npos)
+        << command << ": " << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
 }

@@ -520,4 +520,16 @@ TEST(Scenario, HandAxisOfAnyFiniteSize) {
   }
 }
 
+// Issue 27: check and run used different tests for "inside the sheet" (1e-9 m here, 1e-10 of the outline's
+// size in the mesher), so check passed a finger that run refused without its JSON path.
+TEST(BadInput, FingerJustOutsideTheOutline) {
+  const std::string message = error_of_text(
+      R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [-1e-10, 0.07]}]})", "x.json");
+  EXPECT_NE(message.find("x.json: fingers[0].at: finger A at (-1e-10, 0.07) is outside the sheet"), std::string::npos)
+      << message;
+  // Within the mesher's snap of the edge: on the sheet, and the mesher agrees (a vertex on the edge).
+  EXPECT_NO_THROW(pt::parse_scenario(
+      R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [-1e-12, 0.07]}]})", "x.json"));
+}
+
 }  // namespace
