@@ -652,6 +652,8 @@ Scenario parse_scenario(const std::string& json_text, const std::string& path_fo
   s.path = file;
   if (root.contains("name")) {
     s.name = r.string(root["name"], "name");
+    // A file's name is its output directory, out/<name>: empty would be out/ itself.
+    if (s.name.empty()) fail(file, "name", "must not be empty (it names the output directory out/<name>)");
   } else {
     s.name = std::filesystem::path(file).stem().string();
     if (s.name.empty()) s.name = "scenario";

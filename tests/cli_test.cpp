@@ -506,6 +506,8 @@ TEST_F(Cli, TexturedObjShowsTheCarvedEdge) {
 
 // ---- issue 27: the adversarial probe ----
 
+// ---- issue 27: the adversarial probe ----
+
 // Constants no sheet could have: exit 2 naming the key, nothing written (before: exit 0, status "ok", every
 // substep refused; or exit 1 with a non-finite state).
 TEST_F(Cli, ImplausibleConstantsAreExit2) {
@@ -533,6 +535,46 @@ TEST_F(Cli, CheckAndRunAgreeOnAFingerJustOutside) {
     EXPECT_NE(r.err.find("edge.json: fingers[0].at: finger A at (-1e-10, 0.14) is outside the sheet"),
               std::string::npos)
         << command << ": " << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+// An output location that cannot be a directory: exit 2, one line naming --out, before any sheet runs
+// (before: exit 1 "internal error: cannot create ...", batch only after running every sheet).
+TEST_F(Cli, UnusableOutIsExit2BeforeRunning) {
+  const fs::path g = good();
+  write_file(dir_ / "taken", "x");
+  for (const std::string out : {"/proc/x", "taken/sub", "taken/sub/deeper"}) {
+    for (const std::vector<std::string>& args :
+         {std::vector<std::string>{"run", g.string(), "--out", out},
+          std::vector<std::string>{"batch", g.string(), "--sheets", "2", "--out", out}}) {
+      const Result r = run(args);
+      expect_input_error(r, args[0] + " --out " + out);
+      EXPECT_NE(r.err.find("--out " + out + ": "), std::string::npos) << r.err;
+      EXPECT_TRUE(r.out.empty()) << "ran before refusing the output: " << r.out;
+    }
+  }
+  EXPECT_EQ(read_file(dir_ / "taken"), "x");
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+// An empty name or --out "" is refused, not turned into out/ or the default (before: exit 0, out/result.json;
+// --out "" wrote out/cli-good).
+TEST_F(Cli, EmptyNameAndEmptyOutAreExit2) {
+  std::string text = kGood;
+  text.replace(text.find("\"cli-good\""), 10, "\"\"");
+  write_file(dir_ / "noname.json", text);
+  const Result r = run({"run", "noname.json"});
+  expect_input_error(r, "empty name");
+  EXPECT_NE(r.err.find("noname.json: name: must not be empty"), std::string::npos) << r.err;
+  expect_input_error(run({"check", "noname.json"}), "check empty name");
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+  for (const char* command : {"run", "batch"}) {
+    std::vector<std::string> args{command, good().string(), "--out", ""};
+    if (std::string(command) == "batch") args.insert(args.end(), {"--sheets", "2"});
+    const Result e = run(args);
+    expect_input_error(e, std::string(command) + " --out \"\"");
+    EXPECT_NE(e.err.find("--out: "), std::string::npos) << e.err;
   }
   EXPECT_FALSE(fs::exists(dir_ / "out"));
 }

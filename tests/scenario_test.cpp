@@ -532,4 +532,12 @@ TEST(BadInput, FingerJustOutsideTheOutline) {
       R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [-1e-12, 0.07]}]})", "x.json"));
 }
 
+// Issue 27: a name the CLI would turn into out/ itself.
+TEST(BadInput, EmptyNameInAFile) {
+  const std::string message =
+      error_of_text(R"({"name": "", "sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
+                    "x.json");
+  EXPECT_NE(message.find("x.json: name: must not be empty"), std::string::npos) << message;
+}
+
 }  // namespace
