@@ -712,10 +712,54 @@ std::string shown(const std::string& setting) {
   return setting.size() <= 80 ? setting : setting.substr(0, 60) + "... (" + std::to_string(setting.size()) + " bytes)";
 }
 
+// The offset of the first byte that is not part of well-formed UTF-8 (RFC 3629), npos when all is.
+size_t invalid_utf8_at(std::string_view s) {
+  for (size_t i = 0; i < s.size();) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    size_t n = 0;
+    unsigned char lo = 0x80, hi = 0xbf;  // the range of the second byte
+    if (c < 0x80) n = 1;
+    else if (c >= 0xc2 && c <= 0xdf) n = 2;
+    else if (c >= 0xe0 && c <= 0xef) n = 3, lo = c == 0xe0 ? 0xa0 : 0x80, hi = c == 0xed ? 0x9f : 0xbf;
+    else if (c >= 0xf0 && c <= 0xf4) n = 4, lo = c == 0xf0 ? 0x90 : 0x80, hi = c == 0xf4 ? 0x8f : 0xbf;
+    else return i;
+    if (i + n > s.size()) return i;
+    for (size_t k = 1; k < n; ++k) {
+      const auto b = static_cast<unsigned char>(s[i + k]);
+      if (k == 1 ? (b < lo || b > hi) : (b < 0x80 || b > 0xbf)) return i;
+    }
+    i += n;
+  }
+  return std::string_view::npos;
+}
+
+// JSON's number grammar (RFC 8259 §6): a value that is one but does not parse is out of a double's range.
+bool is_json_number(std::string_view t) {
+  size_t i = 0;
+  const auto digits = [&] {
+    const size_t from = i;
+    while (i < t.size() && t[i] >= '0' && t[i] <= '9') ++i;
+    return i > from;
+  };
+  if (i < t.size() && t[i] == '-') ++i;
+  if (i < t.size() && t[i] == '0') ++i;
+  else if (!digits()) return false;
+  if (i < t.size() && t[i] == '.' && (++i, !digits())) return false;
+  if (i < t.size() && (t[i] == 'e' || t[i] == 'E')) {
+    ++i;
+    if (i < t.size() && (t[i] == '+' || t[i] == '-')) ++i;
+    if (!digits()) return false;
+  }
+  return i == t.size();
+}
+
 // "a.b.c=VALUE" of --set written into the document: VALUE as JSON when it is JSON (0.05, true, [1, 2],
-// "text"), else as a string (patch); objects on the way are created where missing.
+// "text"), else as a string (patch); objects on the way are created where missing. A setting that is not
+// UTF-8 (JSON text is) or a number beyond a double's range is refused rather than stored as text.
 void apply_setting(const std::string& path, const std::string& setting, json& root) {
   const std::string where = "--set " + shown(setting);
+  if (const size_t bad = invalid_utf8_at(setting); bad != std::string_view::npos)
+    fail(path, "", where + ": not UTF-8 text (byte " + std::to_string(bad) + ")");
   const size_t eq = setting.find('=');
   if (eq == std::string::npos || eq == 0) fail(path, "", where + ": expected KEY=VALUE");
   const std::string key = setting.substr(0, eq), text = setting.substr(eq + 1);
@@ -739,9 +783,12 @@ void apply_setting(const std::string& path, const std::string& setting, json& ro
     node = &next;
   }
   // The strict parser, so a value nests no deeper than a file may (dump and the checks recurse).
+  const bool is_json = json::accept(text);
+  if (!is_json && is_json_number(text))
+    fail(path, "", where + ": " + shown(text) + " is out of the range of a number (at most about 1.8e308 in magnitude)");
   json value;
   try {
-    value = json::accept(text) ? parse_json_strict(text, path) : json(text);
+    value = is_json ? parse_json_strict(text, path) : json(text);
   } catch (const InputError& e) {
     throw InputError(std::string(e.what()) + " (in " + where + ")");
   }

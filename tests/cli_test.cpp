@@ -508,6 +508,8 @@ TEST_F(Cli, TexturedObjShowsTheCarvedEdge) {
 
 // ---- issue 27: the adversarial probe ----
 
+// ---- issue 27: the adversarial probe ----
+
 // Constants no sheet could have: exit 2 naming the key, nothing written (before: exit 0, status "ok", every
 // substep refused; or exit 1 with a non-finite state).
 TEST_F(Cli, ImplausibleConstantsAreExit2) {
@@ -577,4 +579,19 @@ TEST_F(Cli, EmptyNameAndEmptyOutAreExit2) {
     EXPECT_NE(e.err.find("--out: "), std::string::npos) << e.err;
   }
   EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+// --set values out of a number's range or not UTF-8: exit 2 naming the --set option (before: "got a string";
+// exit 1 "internal error: [json.exception.type_error.316] ...").
+TEST_F(Cli, SetOutOfRangeOrNotUtf8IsExit2) {
+  const fs::path g = good();
+  const Result big = run({"check", g.string(), "--set", "material.young=1e400"});
+  expect_input_error(big, "1e400");
+  EXPECT_NE(big.err.find("--set material.young=1e400: 1e400 is out of the range of a number"), std::string::npos)
+      << big.err;
+  const Result utf = run({"run", g.string(), "--set", "name=\xff", "--out", "u"});
+  expect_input_error(utf, "invalid UTF-8");
+  EXPECT_NE(utf.err.find("--set name=\\xff: not UTF-8 text"), std::string::npos) << utf.err;
+  EXPECT_EQ(utf.err.find("internal"), std::string::npos) << utf.err;
+  EXPECT_FALSE(fs::exists(dir_ / "u"));
 }

@@ -540,4 +540,27 @@ TEST(BadInput, EmptyNameInAFile) {
   EXPECT_NE(message.find("x.json: name: must not be empty"), std::string::npos) << message;
 }
 
+// Issue 27: --set values that are not JSON numbers nor text: out of a double's range, or not UTF-8.
+TEST(BadInput, SettingsOutOfRangeOrNotUtf8) {
+  const std::string file = std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json";
+  for (const auto& [setting, error] : std::vector<std::pair<std::string, std::string>>{
+           {"material.young=1e400", "--set material.young=1e400: 1e400 is out of the range of a number"},
+           {"x=1e400", "--set x=1e400: 1e400 is out of the range of a number"},
+           {"material.young=-1e400", "--set material.young=-1e400: -1e400 is out of the range of a number"},
+           {"name=\xff\xfe", "--set name=\\xff\\xfe: not UTF-8 text (byte 5)"},
+           {"sim.\xc3=1", "--set sim.\\xc3=1: not UTF-8 text (byte 4)"}}) {
+    try {
+      pt::load_scenario(file, {setting});
+      ADD_FAILURE() << setting << " accepted";
+    } catch (const pt::InputError& e) {
+      const std::string message = e.what();
+      EXPECT_EQ(message.rfind(file + ": ", 0), 0u) << message;
+      EXPECT_NE(message.find(error), std::string::npos) << message;
+      for (const unsigned char c : message) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << "byte " << int(c) << " in " << message;
+    }
+  }
+  // UTF-8 text is still text.
+  EXPECT_EQ(pt::load_scenario(file, {"description=d\xc3\xa9j\xc3\xa0"}).description, "d\xc3\xa9j\xc3\xa0");
+}
+
 }  // namespace
