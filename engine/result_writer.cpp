@@ -200,7 +200,7 @@ std::string solver_failure(const Simulation& sim) {
   const int64_t refused = sim.solver_stats().failures;
   if (substeps <= 0 || 2 * refused <= substeps) return "";
   return "the solver refused " + std::to_string(refused) + " of the run's " + std::to_string(substeps) +
-         " substeps: the sheet did not move as a sheet would";
+         " substeps (a refused substep leaves the sheet where it was)";
 }
 
 bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::string* error) {
