@@ -16,8 +16,10 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <filesystem>
 #include <memory>
@@ -52,6 +54,7 @@ struct RunOptions {
   std::string scenario;
   std::vector<std::string> settings;  // --set KEY=VALUE
   std::string out;
+  bool out_given = false;  // --out was on the command line (so "" is refused, not the default)
   int32_t frames = -1;  // −1: the scenario's
   int32_t threads = 2;
   bool obj = false, svg = false, png = false;
@@ -61,6 +64,7 @@ struct BatchCli {
   std::string scenario;
   std::vector<std::string> settings;
   std::string out;
+  bool out_given = false;
   int32_t sheets = 0;
   int32_t threads = 2;
   int32_t frames = -1;
@@ -103,8 +107,9 @@ class Progress {
   std::chrono::steady_clock::time_point last_{};
 };
 
-// The output directory of a run: refused before any work if it is a file; created only once the
-// input is valid; removed again (with partial frames) when the run fails, if this run created it.
+// The output directory of a run: refused before any work if it is a file; created once the input is
+// valid and before any sheet runs (a location that cannot be a writable directory is a bad --out, exit 2);
+// removed again (with partial frames) when the run fails, if this run created it.
 class OutputDir {
  public:
   explicit OutputDir(fs::path dir) : dir_(std::move(dir)) {
@@ -117,7 +122,12 @@ class OutputDir {
     std::error_code ec;
     created_ = !fs::exists(dir_, ec);
     fs::create_directories(dir_, ec);
-    if (ec) throw std::runtime_error("cannot create " + dir_.string() + ": " + ec.message());
+    if (ec) {
+      created_ = false;
+      throw UsageError("--out " + dir_.string() + ": cannot create the directory: " + ec.message());
+    }
+    if (::access(dir_.c_str(), W_OK | X_OK) != 0)
+      throw UsageError("--out " + dir_.string() + ": cannot write into the directory: " + std::strerror(errno));
   }
 
   const fs::path& path() const { return dir_; }
@@ -162,7 +172,13 @@ std::string plural(int64_t n, const char* word) {
   return std::to_string(n) + " " + word + (n == 1 ? "" : "s");
 }
 
+// --out "" given on the command line: refused rather than read as "the default".
+void check_out_given(bool given, const std::string& out) {
+  if (given && out.empty()) throw UsageError("--out: empty directory name (omit --out for the default)");
+}
+
 int run_command(const RunOptions& opt) {
+  check_out_given(opt.out_given, opt.out);
   pt::Scenario scenario = pt::load_scenario(opt.scenario, opt.settings);
   if (opt.frames >= 0) scenario.sim.frames = opt.frames;
   OutputDir out(opt.out.empty() ? fs::path("out") / scenario.name : fs::path(opt.out));
@@ -219,7 +235,8 @@ int run_command(const RunOptions& opt) {
                       plural(obj_writer->carved_textures_written(), "carved texture") + ")");
   }
   // result.json last: its presence means the run completed.
-  const bool finite = pt::write_result_json(sim, result_path.string());
+  std::string error;
+  const bool ok = pt::write_result_json(sim, result_path.string(), &error);
   written.insert(written.begin(), result_path.string());
   out.commit();
 
@@ -230,8 +247,8 @@ int run_command(const RunOptions& opt) {
               plural(sim.threads(), "thread").c_str());
   for (const std::string& w : written) std::printf("wrote %s\n", w.c_str());
   std::fflush(stdout);
-  if (!finite) {
-    print_error(result_path.string() + ": non-finite numbers in the simulation state (status \"error\")");
+  if (!ok) {
+    print_error(result_path.string() + ": status \"error\": " + error);
     return kExitInternal;
   }
   return kExitOk;
@@ -246,6 +263,7 @@ int check_command(const std::string& path, const std::vector<std::string>& setti
 }
 
 int batch_command(const BatchCli& cli) {
+  check_out_given(cli.out_given, cli.out);
   const pt::Scenario base = pt::load_scenario(cli.scenario, cli.settings);
   pt::BatchOptions options;
   options.sheets = cli.sheets;
@@ -262,6 +280,7 @@ int batch_command(const BatchCli& cli) {
     }
   }
   OutputDir out(cli.out.empty() ? fs::path("out") / (base.name + "-batch") : fs::path(cli.out));
+  out.create();  // before the sheets run: a bad --out fails fast
 
   pt::BatchResult result;
   {
@@ -272,7 +291,6 @@ int batch_command(const BatchCli& cli) {
       progress.update(done);
     });
   }
-  out.create();
   const fs::path json_path = out.path() / "batch.json", csv_path = out.path() / "batch.csv";
   pt::write_batch_csv(result, csv_path.string());
   pt::write_batch_json(result, base.name, json_path.string());
@@ -306,7 +324,7 @@ int main(int argc, char** argv) {
   const char* set_help =
       "KEY=VALUE written into the scenario's JSON before it is read, e.g. sim.relaxation=patch (repeatable)";
   run_cmd->add_option("--set", run.settings, set_help);
-  run_cmd->add_option("--out", run.out, "output directory (default: out/<name>)");
+  CLI::Option* run_out = run_cmd->add_option("--out", run.out, "output directory (default: out/<name>)");
   run_cmd->add_option("--frames", run.frames, "frames to simulate (default: the scenario's)")
       ->check(CLI::Range(1, 10'000'000));
   run_cmd->add_option("--threads", run.threads, "worker threads (default: 2)")->check(CLI::Range(1, 1024));
@@ -328,7 +346,7 @@ int main(int argc, char** argv) {
   batch_cmd->add_option("--threads", batch.threads, "worker threads (default: 2)")->check(CLI::Range(1, 1024));
   batch_cmd->add_option("--frames", batch.frames, "frames per sheet (default: the scenario's)")
       ->check(CLI::Range(1, 10'000'000));
-  batch_cmd->add_option("--out", batch.out, "output directory (default: out/<name>-batch)");
+  CLI::Option* batch_out = batch_cmd->add_option("--out", batch.out, "output directory (default: out/<name>-batch)");
   std::string vary_help = "KEY=FROM:TO, spread linearly over the sheets (repeatable); KEY is one of";
   for (const std::string& k : pt::variation_keys()) vary_help += " " + k;
   batch_cmd->add_option("--vary", batch.vary, vary_help);
@@ -344,6 +362,8 @@ int main(int argc, char** argv) {
     return kExitInput;
   }
 
+  run.out_given = run_out->count() > 0;
+  batch.out_given = batch_out->count() > 0;
   try {
     if (*run_cmd) return run_command(run);
     if (*check_cmd) return check_command(check_path, check_settings);

@@ -1,6 +1,7 @@
 #include "engine/batch.hpp"
 
 #include "components/capacity_bytes.hpp"
+#include "engine/result_writer.hpp"
 
 #include <nlohmann/json.hpp>
 #include <oneapi/tbb/parallel_for.h>
@@ -171,6 +172,7 @@ BatchResult run_batch(const Scenario& base, const BatchOptions& options,
         bytes[i] = sheet_bytes(sh);
         solver_bytes[i] = sim.solver_bytes();
         for (const FrameStats& fs : sim.frame_stats()) triangles[i] += fs.triangles;
+        if (const std::string why = solver_failure(sim); !why.empty()) out.status = "error: " + why;
       } catch (const std::exception& e) {
         out.status = std::string("error: ") + e.what();
       }

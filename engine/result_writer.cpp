@@ -193,7 +193,17 @@ void write_file_atomically(const std::string& path, const std::string& content) 
   }
 }
 
-bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out) {
+std::string solver_failure(const Simulation& sim) {
+  // Refused substeps leave the state as it was; a few are survivable, most mean the sheet never moved
+  // (a step far outside what the solver can take). Relaxation substeps add to the refusals, not to the count.
+  const int64_t substeps = static_cast<int64_t>(sim.frame()) * sim.scenario().sim.substeps;
+  const int64_t refused = sim.solver_stats().failures;
+  if (substeps <= 0 || 2 * refused <= substeps) return "";
+  return "the solver refused " + std::to_string(refused) + " of the run's " + std::to_string(substeps) +
+         " substeps (a refused substep leaves the sheet where it was)";
+}
+
+bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::string* error) {
   const Sheet& sheet = sim.sheet();
   const std::vector<FrameStats>& stats = sim.frame_stats();
   Numbers num;
@@ -226,7 +236,7 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out) {
 
   ojson result;
   result["scenario"] = sim.scenario().name;
-  result["status"] = "ok";  // replaced below when a number was not finite
+  result["status"] = "ok";  // replaced below when a number was not finite or the solver refused most substeps
   result["frames"] = sim.frame();
   result["threads"] = sim.threads();
   result["mesh"] = ojson{{"vertices", sheet.verts.size()},
@@ -313,14 +323,25 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out) {
                               {"factorization", num(solver.factorization_ms)},
                               {"solve", num(solver.solve_ms)}};
 
-  if (!num.finite) result["status"] = "error";
-  out = std::move(result);
-  return num.finite;
+  std::string reason = solver_failure(sim);
+  if (!num.finite) reason += (reason.empty() ? "" : "; ") + std::string("non-finite numbers in the simulation state");
+  if (error) *error = reason;
+  if (reason.empty()) {
+    out = std::move(result);
+    return true;
+  }
+  result["status"] = "error";
+  out = ojson::object();
+  for (auto it = result.begin(); it != result.end(); ++it) {  // "error" right after "status"
+    out[it.key()] = std::move(it.value());
+    if (it.key() == "status") out["error"] = reason;
+  }
+  return false;
 }
 
-bool write_result_json(const Simulation& sim, const std::string& path) {
+bool write_result_json(const Simulation& sim, const std::string& path, std::string* error) {
   ojson result;
-  const bool ok = build_result_json(sim, result);
+  const bool ok = build_result_json(sim, result, error);
   std::string text;
   append_pretty(result, 0, text);
   write_file_atomically(path, text + "\n");

@@ -15,13 +15,19 @@ namespace pt {
 class Simulation;
 
 // The result document: the keys of DESIGN §7 in that order, then "systems_ms", "regions_summary" and
-// "pieces". A non-finite number is written as null and makes "status" "error". Returns true when every
-// number was finite (status "ok"). Call Simulation::flush() first so tears' detail paths are complete.
-bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out);
+// "pieces". "status" is "error", with the reason in "error" (after "status"; also in `*error` when given),
+// when a number was not finite (it is written as null) or when the solver refused more than half of the
+// run's substeps (the sheet stood still: not a result). Returns true when the status is "ok". Call
+// Simulation::flush() first so tears' detail paths are complete.
+bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::string* error = nullptr);
 
 // Writes build_result_json to `path` (pretty-printed). Returns its status (true: "ok"). Throws
 // std::runtime_error when the file cannot be written.
-bool write_result_json(const Simulation& sim, const std::string& path);
+bool write_result_json(const Simulation& sim, const std::string& path, std::string* error = nullptr);
+
+// "" when the solver did its work; else why the run is not a result ("the solver refused 30 of the run's 30
+// substeps ..."): more than half of frames × substeps refused.
+std::string solver_failure(const Simulation& sim);
 
 // The 2D pattern, upright (v up), viewBox in millimetres: triangles coloured by region kind, boundary,
 // candidates (junction yellow, inward sky blue), fingers with names, tears (coarse thick dark red,

@@ -36,6 +36,13 @@ constexpr double kMaxGravity = 10'000;     // m/s²
 constexpr double kMaxKeyTime = 1e7;        // s
 constexpr double kMaxGrip = 1e4;           // N
 constexpr int64_t kMaxFileBytes = 64ll << 20;
+// What a sheet can physically be (README, "Scenario format"). Beyond these the implicit solver refuses
+// every substep (the sheet stands still) or the state overflows: no result, so the input is refused.
+constexpr double kMinThickness = 1e-6, kMaxThickness = 0.01;  // m: cling film to thick board
+constexpr double kMinDensity = 1, kMaxDensity = 25'000;        // kg/m³: aerogel to osmium
+constexpr double kMinYoung = 1e3, kMaxYoung = 1e12;            // Pa: a soft gel to diamond
+constexpr double kMaxBendingScale = 1e4;                       // of paper's E e³ / 12(1 − ν²)
+constexpr double kMinFps = 1;                                  // frames/s: a frame lasts at most a second
 constexpr int kMaxDepth = 32;
 
 std::string file_label(const std::string& path) { return path.empty() ? "<scenario>" : path; }
@@ -115,6 +122,15 @@ void check_range(const std::string& file, const std::string& path, double v, dou
   check_finite(file, path, v);
   if (v < lo || v > hi || (hi_open && v == hi))
     fail(file, path, "must be in [" + fmt(lo) + ", " + fmt(hi) + (hi_open ? ")" : "]") + ", got " + fmt(v));
+}
+
+// A physical constant within what a sheet can be; `unit` is shown after the range ("" for factors).
+void check_plausible(const std::string& file, const std::string& path, double v, double lo, double hi,
+                     const std::string& unit) {
+  check_finite(file, path, v);
+  if (v < lo || v > hi)
+    fail(file, path, "outside the plausible range [" + fmt(lo) + ", " + fmt(hi) + "]" + (unit.empty() ? "" : " " + unit) +
+                         ", got " + fmt(v));
 }
 
 void check_vec(const std::string& file, const std::string& path, const double* v, int n, double max_abs) {
@@ -502,10 +518,14 @@ void validate_scenario(const Scenario& s) {
   // Material.
   const Material& m = s.material;
   check_positive(file, "material.thickness", m.thickness);
+  check_plausible(file, "material.thickness", m.thickness, kMinThickness, kMaxThickness, "m");
   check_positive(file, "material.density", m.density);
+  check_plausible(file, "material.density", m.density, kMinDensity, kMaxDensity, "kg/m^3");
   check_positive(file, "material.young", m.young);
+  check_plausible(file, "material.young", m.young, kMinYoung, kMaxYoung, "Pa");
   check_range(file, "material.poisson", m.poisson, 0, 0.5, true);
   check_non_negative(file, "material.bending_scale", m.bending_scale);
+  check_plausible(file, "material.bending_scale", m.bending_scale, 0, kMaxBendingScale, "");
   check_range(file, "material.membrane_scale", m.membrane_scale, 0, 1, false);
   if (!(m.membrane_scale > 0)) fail(file, "material.membrane_scale", "must be > 0 (a fraction of young, at most 1)");
   check_positive(file, "material.strain_limit", m.strain_limit);
@@ -528,7 +548,7 @@ void validate_scenario(const Scenario& s) {
 
   // Sim.
   check_positive(file, "sim.fps", s.sim.fps);
-  if (s.sim.fps > kMaxFps) fail(file, "sim.fps", "absurd size " + fmt(s.sim.fps) + " (at most " + fmt(kMaxFps) + ")");
+  check_plausible(file, "sim.fps", s.sim.fps, kMinFps, kMaxFps, "frames/s");
   check_int(file, "sim.substeps", s.sim.substeps, 1, kMaxSubsteps);
   check_int(file, "sim.frames", s.sim.frames, 1, kMaxFrames);
   check_int(file, "sim.iterations", s.sim.iterations, 1, kMaxIterations);
@@ -562,7 +582,7 @@ void validate_scenario(const Scenario& s) {
     for (size_t k = 0; k < i; ++k)
       if (s.fingers[k].name == f.name) fail(file, child(p, "name"), "duplicate finger name \"" + f.name + "\"");
     check_vec(file, child(p, "at"), f.at.data(), 2, kMaxCoordinate);
-    if (!point_in_polygon(outline, f.at, 1e-9))
+    if (!point_on_sheet(outline, f.at))  // the mesher's test: what check accepts, run meshes
       fail(file, child(p, "at"), "finger " + f.name + " at " + fmt_uv(f.at) + " is outside the sheet");
     for (size_t k = 0; k < i; ++k)
       if ((s.fingers[k].at - f.at).norm() < 1e-9)
@@ -606,7 +626,8 @@ void validate_scenario(const Scenario& s) {
       check_vec(file, child(kp, "translate"), key.translate.data(), 3, kMaxCoordinate);
       check_finite(file, child(kp, "rotate_deg"), key.rotate_deg);
       check_vec(file, child(kp, "axis"), key.axis.data(), 3, std::numeric_limits<double>::max());
-      if (!(key.axis.norm() > 1e-12)) fail(file, child(kp, "axis"), "rotation axis must be non-zero");
+      // Any finite non-zero vector is a direction (apply_hand_motion scales it before normalising).
+      if (!(key.axis.cwiseAbs().maxCoeff() > 0)) fail(file, child(kp, "axis"), "rotation axis must be non-zero");
     }
     validate_key_times(file, child(p, "keys"), times);
   }
@@ -631,6 +652,8 @@ Scenario parse_scenario(const std::string& json_text, const std::string& path_fo
   s.path = file;
   if (root.contains("name")) {
     s.name = r.string(root["name"], "name");
+    // A file's name is its output directory, out/<name>: empty would be out/ itself.
+    if (s.name.empty()) fail(file, "name", "must not be empty (it names the output directory out/<name>)");
   } else {
     s.name = std::filesystem::path(file).stem().string();
     if (s.name.empty()) s.name = "scenario";
@@ -689,10 +712,54 @@ std::string shown(const std::string& setting) {
   return setting.size() <= 80 ? setting : setting.substr(0, 60) + "... (" + std::to_string(setting.size()) + " bytes)";
 }
 
+// The offset of the first byte that is not part of well-formed UTF-8 (RFC 3629), npos when all is.
+size_t invalid_utf8_at(std::string_view s) {
+  for (size_t i = 0; i < s.size();) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    size_t n = 0;
+    unsigned char lo = 0x80, hi = 0xbf;  // the range of the second byte
+    if (c < 0x80) n = 1;
+    else if (c >= 0xc2 && c <= 0xdf) n = 2;
+    else if (c >= 0xe0 && c <= 0xef) n = 3, lo = c == 0xe0 ? 0xa0 : 0x80, hi = c == 0xed ? 0x9f : 0xbf;
+    else if (c >= 0xf0 && c <= 0xf4) n = 4, lo = c == 0xf0 ? 0x90 : 0x80, hi = c == 0xf4 ? 0x8f : 0xbf;
+    else return i;
+    if (i + n > s.size()) return i;
+    for (size_t k = 1; k < n; ++k) {
+      const auto b = static_cast<unsigned char>(s[i + k]);
+      if (k == 1 ? (b < lo || b > hi) : (b < 0x80 || b > 0xbf)) return i;
+    }
+    i += n;
+  }
+  return std::string_view::npos;
+}
+
+// JSON's number grammar (RFC 8259 §6): a value that is one but does not parse is out of a double's range.
+bool is_json_number(std::string_view t) {
+  size_t i = 0;
+  const auto digits = [&] {
+    const size_t from = i;
+    while (i < t.size() && t[i] >= '0' && t[i] <= '9') ++i;
+    return i > from;
+  };
+  if (i < t.size() && t[i] == '-') ++i;
+  if (i < t.size() && t[i] == '0') ++i;
+  else if (!digits()) return false;
+  if (i < t.size() && t[i] == '.' && (++i, !digits())) return false;
+  if (i < t.size() && (t[i] == 'e' || t[i] == 'E')) {
+    ++i;
+    if (i < t.size() && (t[i] == '+' || t[i] == '-')) ++i;
+    if (!digits()) return false;
+  }
+  return i == t.size();
+}
+
 // "a.b.c=VALUE" of --set written into the document: VALUE as JSON when it is JSON (0.05, true, [1, 2],
-// "text"), else as a string (patch); objects on the way are created where missing.
+// "text"), else as a string (patch); objects on the way are created where missing. A setting that is not
+// UTF-8 (JSON text is) or a number beyond a double's range is refused rather than stored as text.
 void apply_setting(const std::string& path, const std::string& setting, json& root) {
   const std::string where = "--set " + shown(setting);
+  if (const size_t bad = invalid_utf8_at(setting); bad != std::string_view::npos)
+    fail(path, "", where + ": not UTF-8 text (byte " + std::to_string(bad) + ")");
   const size_t eq = setting.find('=');
   if (eq == std::string::npos || eq == 0) fail(path, "", where + ": expected KEY=VALUE");
   const std::string key = setting.substr(0, eq), text = setting.substr(eq + 1);
@@ -716,9 +783,12 @@ void apply_setting(const std::string& path, const std::string& setting, json& ro
     node = &next;
   }
   // The strict parser, so a value nests no deeper than a file may (dump and the checks recurse).
+  const bool is_json = json::accept(text);
+  if (!is_json && is_json_number(text))
+    fail(path, "", where + ": " + shown(text) + " is out of the range of a number (at most about 1.8e308 in magnitude)");
   json value;
   try {
-    value = json::accept(text) ? parse_json_strict(text, path) : json(text);
+    value = is_json ? parse_json_strict(text, path) : json(text);
   } catch (const InputError& e) {
     throw InputError(std::string(e.what()) + " (in " + where + ")");
   }

@@ -29,6 +29,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <functional>
 #include <stdexcept>
@@ -46,6 +47,25 @@ uint64_t fnv1a(uint64_t h, const void* data, size_t bytes) {
     h *= 1099511628211ull;
   }
   return h;
+}
+
+// Interactive targets obey a scenario file's limit on key positions (engine/scenario.cpp, README).
+constexpr double kMaxTarget = 1000;  // m
+
+std::string fmt_point(const Vec3& p) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "(%.6g, %.6g, %.6g)", p.x(), p.y(), p.z());
+  return buf;
+}
+
+// The finger an interactive call names: an index the caller got from the sheet, else InputError.
+Finger& finger_of(Sheet& sheet, int32_t finger, const char* call) {
+  const int32_t n = static_cast<int32_t>(sheet.fingers.size());
+  if (finger < 0 || finger >= n)
+    throw InputError(std::string(call) + ": no finger " + std::to_string(finger) +
+                     (n == 0 ? std::string(" (the sheet has no fingers)")
+                             : " (the sheet has fingers 0 to " + std::to_string(n - 1) + ")"));
+  return sheet.fingers[finger];
 }
 
 }  // namespace
@@ -537,7 +557,11 @@ int32_t Simulation::attach_finger(const std::string& name, const Vec2& uv) {
 }
 
 void Simulation::move_finger(int32_t finger, const Vec3& target) {
-  Finger& f = impl_->sheet.fingers.at(finger);
+  Finger& f = finger_of(impl_->sheet, finger, "move_finger");
+  const std::string which = "move_finger: finger " + std::to_string(finger) + " (" + f.name + "): target ";
+  if (!target.allFinite()) throw InputError(which + fmt_point(target) + " is not a finite point");
+  if (target.cwiseAbs().maxCoeff() > kMaxTarget)
+    throw InputError(which + fmt_point(target) + " is too far (each coordinate at most 1000 m)");
   if (f.released) return;  // let go (or slid out of its pinch): it holds nothing to move
   const double t = impl_->time_at(impl_->frame + 1);
   if (!f.keys.empty() && f.keys.back().t >= t) f.keys.back().position = target;
@@ -561,7 +585,7 @@ void Simulation::set_detail_noise(double sigma, double omega) {
 }
 
 void Simulation::release_finger(int32_t finger) {
-  Finger& f = impl_->sheet.fingers.at(finger);
+  Finger& f = finger_of(impl_->sheet, finger, "release_finger");
   f.release_time = time();
   f.vertex = -1;
   f.released = true;

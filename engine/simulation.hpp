@@ -115,9 +115,11 @@ class Simulation {
   // Puts a finger on the sheet at pattern point uv now (a vertex is inserted there); returns its index,
   // −1 when uv is outside the sheet.
   int32_t attach_finger(const std::string& name, const Vec2& uv);
-  // The finger reaches `target` at the end of the next frame (a key at that time).
+  // The finger reaches `target` at the end of the next frame (a key at that time). InputError, naming the
+  // finger, for an index the sheet does not have or a target that is not finite or beyond 1000 m (the
+  // limit of a scenario's key positions); nothing is keyed then.
   void move_finger(int32_t finger, const Vec3& target);
-  void release_finger(int32_t finger);
+  void release_finger(int32_t finger);  // InputError for an index the sheet does not have
   // Parameters a running simulation takes from its next frame on (the viewer's live panel): the
   // propagation speed k and step cap of p_next = p + k·Er·t (paper §5.2, DESIGN §5.4), and the detail
   // noise σ, ω of the segments carved from now on (paper §6). Invalid values (negative k, a cap that is

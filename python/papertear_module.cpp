@@ -84,6 +84,17 @@ struct PySim {
 PySim& py_of(const py::object& self) { return self.cast<PySim&>(); }
 const pt::Simulation& sim_of(const py::object& self) { return *py_of(self).sim; }
 
+// A finger index from Python: IndexError, as Python's sequences say it, for one the sheet does not have (not
+// wrapped: -1 is no finger, and a large int is not cut to 32 bits).
+int32_t finger_index(const PySim& p, int64_t finger, const char* call) {
+  const int64_t n = static_cast<int64_t>(p.sim->sheet().fingers.size());
+  if (finger < 0 || finger >= n)
+    throw py::index_error(std::string(call) + ": no finger " + std::to_string(finger) +
+                          (n == 0 ? std::string(" (the sheet has no fingers)")
+                                  : " (the sheet has fingers 0 to " + std::to_string(n - 1) + ")"));
+  return static_cast<int32_t>(finger);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(papertear, m) {
@@ -276,7 +287,14 @@ PYBIND11_MODULE(papertear, m) {
           "name"_a, "uv"_a, "Put a finger on the pattern point uv now; returns its index (a vertex is inserted).")
       .def(
           "move_finger",
-          [](PySim& p, int32_t finger, std::array<double, 3> x) { p.sim->move_finger(finger, pt::Vec3(x[0], x[1], x[2])); },
-          "finger"_a, "target"_a, "The finger reaches target (world, m) at the end of the next frame.")
-      .def("release_finger", [](PySim& p, int32_t finger) { p.sim->release_finger(finger); }, "finger"_a);
+          [](PySim& p, int64_t finger, std::array<double, 3> x) {
+            p.sim->move_finger(finger_index(p, finger, "move_finger"), pt::Vec3(x[0], x[1], x[2]));
+          },
+          "finger"_a, "target"_a,
+          "The finger reaches target (world, m) at the end of the next frame. IndexError for a finger the sheet "
+          "does not have; InputError (a ValueError) for a target that is not finite or beyond 1000 m.")
+      .def(
+          "release_finger",
+          [](PySim& p, int64_t finger) { p.sim->release_finger(finger_index(p, finger, "release_finger")); },
+          "finger"_a, "Let the finger go. IndexError for a finger the sheet does not have.");
 }

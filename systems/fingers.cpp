@@ -41,8 +41,16 @@ Vec3 apply_hand_motion(const Hand& hand, double t, const Vec3& q) {
     // The axis of the key being moved towards: a hand turns about one axis per interval.
     axis = k[i].axis;
   }
+  // The norm of [1e200, 1e200, 0] overflows and that of [1e-200, 0, 0] underflows, either of which would
+  // make the axis zero and the rotation a scaling: such an axis is scaled by its largest component first
+  // (others keep the plain quotient, so their results do not change by a rounding).
   const double n = axis.norm();
-  const Vec3 unit_axis = n > 0 ? Vec3(axis / n) : Vec3(0, 0, 1);
+  const double largest = axis.cwiseAbs().maxCoeff();
+  Vec3 unit_axis(0, 0, 1);
+  if (std::isfinite(n) && n >= 1e-150)
+    unit_axis = axis / n;
+  else if (largest > 0 && std::isfinite(largest))
+    unit_axis = (axis / largest).normalized();
   const Eigen::AngleAxisd rotation(angle_deg * std::numbers::pi / 180.0, unit_axis);
   return hand.centroid + rotation * (q - hand.centroid) + translate;
 }

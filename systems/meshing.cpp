@@ -165,9 +165,8 @@ Problem prepare(const MeshRequest& rq) {
   pb.area = signed_area(outline);
   const double rad = rq.rotation_deg * std::numbers::pi / 180;
   if (rq.rotation_deg != 0) pb.cos_r = std::cos(rad), pb.sin_r = std::sin(rad);
-  // Points closer than this to the outline are on it: a finger put on the edge of the sheet from a
-  // decimal scenario file is rarely exactly on the line.
-  const double snap = 1e-10 * pb.diameter;
+  // Points closer than this to the outline are on it (point_on_sheet).
+  const double snap = outline_snap_distance(outline);
 
   const size_t m = rq.required_points.size();
   std::vector<int32_t> at_vertex(m, -1);                        // outline vertex it coincides with
@@ -178,7 +177,7 @@ Problem prepare(const MeshRequest& rq) {
     const Vec2& p = rq.required_points[i];
     if (!std::isfinite(p.x()) || !std::isfinite(p.y()))
       throw GeometryError("required point " + std::to_string(i) + " has a non-finite coordinate");
-    if (!point_in_polygon(outline, p, snap)) throw GeometryError("point " + fmt_point(p) + " is outside the outline");
+    if (!point_on_sheet(outline, p)) throw GeometryError("point " + fmt_point(p) + " is outside the outline");
     for (size_t v = 0; v < n && at_vertex[i] < 0; ++v)
       if ((outline[v] - p).squaredNorm() <= snap * snap) at_vertex[i] = int32_t(v);
     if (at_vertex[i] >= 0) continue;
@@ -459,6 +458,17 @@ bool point_in_polygon(const std::vector<Vec2>& polygon, const Vec2& p, double to
     }
   }
   return inside;
+}
+
+double outline_snap_distance(const std::vector<Vec2>& outline) {
+  if (outline.empty()) return 0;
+  Vec2 lo = outline[0], hi = outline[0];
+  for (const Vec2& p : outline) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  return 1e-10 * (hi - lo).norm();
+}
+
+bool point_on_sheet(const std::vector<Vec2>& outline, const Vec2& p) {
+  return point_in_polygon(outline, p, outline_snap_distance(outline));
 }
 
 void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vector<Tri>& tri,

@@ -42,4 +42,10 @@ std::string outline_problem(const std::vector<Vec2>& outline);
 
 bool point_in_polygon(const std::vector<Vec2>& polygon, const Vec2& p, double tolerance = 1e-12);
 
+// The test mesh_outline puts a required point to, shared with the scenario loader so that a finger `check`
+// accepts is one `run` meshes: inside the outline, or on it within 1e-10 of its bounding box's diagonal (a
+// finger put on the edge from a decimal scenario file is rarely exactly on the line).
+double outline_snap_distance(const std::vector<Vec2>& outline);
+bool point_on_sheet(const std::vector<Vec2>& outline, const Vec2& p);
+
 }  // namespace pt

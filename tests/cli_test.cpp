@@ -536,3 +536,97 @@ TEST_F(Cli, TexturedObjShowsTheCarvedEdge) {
 }
 
 }  // namespace
+
+// ---- issue 27: the adversarial probe ----
+
+// ---- issue 27: the adversarial probe ----
+
+// ---- issue 27: the adversarial probe ----
+
+// ---- issue 27: the adversarial probe ----
+
+// Constants no sheet could have: exit 2 naming the key, nothing written (before: exit 0, status "ok", every
+// substep refused; or exit 1 with a non-finite state).
+TEST_F(Cli, ImplausibleConstantsAreExit2) {
+  const fs::path g = good();
+  for (const std::string setting : {"material.young=1e308", "material.thickness=1e308", "sim.fps=1e-300",
+                                    "material.bending_scale=1e300", "material.density=1e300"}) {
+    const Result r = run({"run", g.string(), "--set", setting, "--out", "o"});
+    expect_input_error(r, setting);
+    EXPECT_NE(r.err.find(setting.substr(0, setting.find('=')) + ": outside the plausible range"), std::string::npos)
+        << r.err;
+    EXPECT_FALSE(fs::exists(dir_ / "o")) << setting;
+    expect_input_error(run({"check", g.string(), "--set", setting}), "check " + setting);
+  }
+}
+
+// check and run agree on a finger just outside the outline, and both name its JSON path (before: check
+// exit 0, run exit 2 "point (-1e-10, 0.14) is outside the outline").
+TEST_F(Cli, CheckAndRunAgreeOnAFingerJustOutside) {
+  std::string text = kGood;
+  text.replace(text.find("[0.02, 0.14]"), 12, "[-1e-10, 0.14]");
+  write_file(dir_ / "edge.json", text);
+  for (const char* command : {"check", "run"}) {
+    const Result r = run({command, "edge.json"});
+    expect_input_error(r, command);
+    EXPECT_NE(r.err.find("edge.json: fingers[0].at: finger A at (-1e-10, 0.14) is outside the sheet"),
+              std::string::npos)
+        << command << ": " << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+// An output location that cannot be a directory: exit 2, one line naming --out, before any sheet runs
+// (before: exit 1 "internal error: cannot create ...", batch only after running every sheet).
+TEST_F(Cli, UnusableOutIsExit2BeforeRunning) {
+  const fs::path g = good();
+  write_file(dir_ / "taken", "x");
+  for (const std::string out : {"/proc/x", "taken/sub", "taken/sub/deeper"}) {
+    for (const std::vector<std::string>& args :
+         {std::vector<std::string>{"run", g.string(), "--out", out},
+          std::vector<std::string>{"batch", g.string(), "--sheets", "2", "--out", out}}) {
+      const Result r = run(args);
+      expect_input_error(r, args[0] + " --out " + out);
+      EXPECT_NE(r.err.find("--out " + out + ": "), std::string::npos) << r.err;
+      EXPECT_TRUE(r.out.empty()) << "ran before refusing the output: " << r.out;
+    }
+  }
+  EXPECT_EQ(read_file(dir_ / "taken"), "x");
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+// An empty name or --out "" is refused, not turned into out/ or the default (before: exit 0, out/result.json;
+// --out "" wrote out/cli-good).
+TEST_F(Cli, EmptyNameAndEmptyOutAreExit2) {
+  std::string text = kGood;
+  text.replace(text.find("\"cli-good\""), 10, "\"\"");
+  write_file(dir_ / "noname.json", text);
+  const Result r = run({"run", "noname.json"});
+  expect_input_error(r, "empty name");
+  EXPECT_NE(r.err.find("noname.json: name: must not be empty"), std::string::npos) << r.err;
+  expect_input_error(run({"check", "noname.json"}), "check empty name");
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+  for (const char* command : {"run", "batch"}) {
+    std::vector<std::string> args{command, good().string(), "--out", ""};
+    if (std::string(command) == "batch") args.insert(args.end(), {"--sheets", "2"});
+    const Result e = run(args);
+    expect_input_error(e, std::string(command) + " --out \"\"");
+    EXPECT_NE(e.err.find("--out: "), std::string::npos) << e.err;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+// --set values out of a number's range or not UTF-8: exit 2 naming the --set option (before: "got a string";
+// exit 1 "internal error: [json.exception.type_error.316] ...").
+TEST_F(Cli, SetOutOfRangeOrNotUtf8IsExit2) {
+  const fs::path g = good();
+  const Result big = run({"check", g.string(), "--set", "material.young=1e400"});
+  expect_input_error(big, "1e400");
+  EXPECT_NE(big.err.find("--set material.young=1e400: 1e400 is out of the range of a number"), std::string::npos)
+      << big.err;
+  const Result utf = run({"run", g.string(), "--set", "name=\xff", "--out", "u"});
+  expect_input_error(utf, "invalid UTF-8");
+  EXPECT_NE(utf.err.find("--set name=\\xff: not UTF-8 text"), std::string::npos) << utf.err;
+  EXPECT_EQ(utf.err.find("internal"), std::string::npos) << utf.err;
+  EXPECT_FALSE(fs::exists(dir_ / "u"));
+}

@@ -7,6 +7,7 @@
 // Also the soak (DISABLED_: run by `make soak` / scripts/soak.sh with --gtest_also_run_disabled_tests):
 // 10 000 frames of tests/soak/soak.json, NaN check every frame, per-1000-frame frame time, triangle count
 // and memory (getrusage peak RSS).
+#include "engine/result_writer.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "systems/meshing.hpp"
@@ -14,6 +15,7 @@
 #include "systems/topology.hpp"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <sys/resource.h>
 
@@ -24,6 +26,8 @@
 #include <cstdlib>
 #include <fstream>
 #include <functional>
+#include <iterator>
+#include <limits>
 #include <numbers>
 #include <sstream>
 #include <string>
@@ -472,4 +476,71 @@ TEST(Soak, DISABLED_TenThousandFrames) {
   std::fputs(rep.str().c_str(), stdout);
   if (env_report) std::ofstream(env_report) << rep.str();
   EXPECT_TRUE(sim.invariant_violations().empty());
+}
+
+// Issue 27: a run whose solver refuses (nearly) every substep is not a result: status "error" with the reason
+// (before: "ok" while 30 of 30 substeps were refused and the sheet never moved). Inputs that do this are
+// refused at validation, so the material is changed behind its back, as a tool with mutable_sheet() could.
+TEST(Hostile, SolverRefusingEverySubstepIsAnError) {
+  Simulation sim(parse_scenario(scene("stuck", pair_apart(0.03, 0.1, 1.5), 3), "stuck.json"));
+  sim.mutable_sheet().material.young = 1e200;  // the implicit solver cannot factorise this
+  for (int f = 0; f < 3; ++f) sim.step();
+  sim.flush();
+  ASSERT_GE(sim.solver_stats().failures, 3 * 10);
+  nlohmann::ordered_json doc;
+  std::string error;
+  EXPECT_FALSE(build_result_json(sim, doc, &error));
+  EXPECT_EQ(doc["status"], "error");
+  ASSERT_TRUE(doc.contains("error"));
+  EXPECT_EQ(doc["error"], error);
+  EXPECT_EQ(error.rfind("the solver refused ", 0), 0u) << error;
+  EXPECT_NE(error.find(" of the run's 30 substeps"), std::string::npos) << error;
+  EXPECT_EQ(std::next(doc.begin())->get<std::string>(), "error");  // "status" right after "scenario"
+  EXPECT_EQ(std::next(doc.begin(), 2).key(), "error");
+  EXPECT_EQ(error.rfind(solver_failure(sim), 0), 0u) << error;  // the solver's reason first
+  // A healthy run of the same scene: no reason, status "ok".
+  Simulation good(parse_scenario(scene("moving", pair_apart(0.03, 0.1, 1.5), 3), "moving.json"));
+  for (int f = 0; f < 3; ++f) good.step();
+  good.flush();
+  EXPECT_EQ(solver_failure(good), "");
+  EXPECT_TRUE(build_result_json(good, doc, &error));
+  EXPECT_EQ(doc["status"], "ok");
+  EXPECT_FALSE(doc.contains("error"));
+}
+
+// Issue 27: the interactive API refuses a finger that does not exist and a target that is not a place
+// (before: NaN, inf and 1e300 were keyed; 999 threw "vector::_M_range_check", −1 showed 18446744073709551615).
+TEST(Hostile, MoveFingerRefusesBadFingersAndTargets) {
+  Simulation sim(parse_scenario(scene("api", pair_apart(0.03, 0.1, 1.5), 3), "api.json"));
+  const auto message = [&](const std::function<void()>& call) -> std::string {
+    try {
+      call();
+    } catch (const InputError& e) {
+      return e.what();
+    } catch (const std::exception& e) {
+      return std::string("wrong exception type: ") + e.what();
+    }
+    return "no error";
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(message([&] { sim.move_finger(999, Vec3(0, 0, 0)); }),
+            "move_finger: no finger 999 (the sheet has fingers 0 to 1)");
+  EXPECT_EQ(message([&] { sim.move_finger(-1, Vec3(0, 0, 0)); }),
+            "move_finger: no finger -1 (the sheet has fingers 0 to 1)");
+  EXPECT_EQ(message([&] { sim.release_finger(2); }), "release_finger: no finger 2 (the sheet has fingers 0 to 1)");
+  for (const Vec3& bad : {Vec3(nan, 0, 0), Vec3(0, inf, 0), Vec3(0, 0, -inf), Vec3(1e300, 0, 0), Vec3(0, -1001, 0)}) {
+    const std::string m = message([&] { sim.move_finger(1, bad); });
+    EXPECT_EQ(m.rfind("move_finger: finger 1 (B): target ", 0), 0u) << m;
+  }
+  EXPECT_NE(message([&] { sim.move_finger(0, Vec3(nan, 0, 0)); }).find("not a finite point"), std::string::npos);
+  EXPECT_NE(message([&] { sim.move_finger(0, Vec3(1e300, 0, 0)); }).find("at most 1000 m"), std::string::npos);
+  const std::string before = sim.state_hash();
+  sim.step();  // the refused targets left no key behind
+  std::string where;
+  EXPECT_TRUE(all_finite(sim.sheet(), where)) << where;
+  for (const Finger& f : sim.sheet().fingers)
+    for (const FingerKey& k : f.keys) EXPECT_TRUE(k.position.allFinite() && k.position.norm() < 1) << f.name;
+  EXPECT_NE(sim.state_hash(), before);
+  EXPECT_EQ(message([&] { sim.move_finger(0, Vec3(0.035, 0.09, 0.02)); }), "no error");
+  EXPECT_EQ(message([&] { sim.move_finger(1, Vec3(0, -1000, 0)); }), "no error");  // far, but a place
 }

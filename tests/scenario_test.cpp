@@ -9,6 +9,7 @@
 #include <fstream>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -478,6 +479,88 @@ TEST(BadInput, UnsupportedVersion) {
   const std::string message = error_of_text(
       R"({"version": 2, "sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})", "x.json");
   EXPECT_NE(message.find("version: unsupported scenario version 2"), std::string::npos) << message;
+}
+
+// Issue 27: constants no sheet could have are refused at input, naming the key, rather than left to a solver
+// that refuses every substep or a state that overflows (README, "Scenario format": the plausible ranges).
+TEST(BadInput, ImplausiblePhysicalConstants) {
+  const std::string file = std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json";
+  for (const auto& [setting, error] : std::vector<std::pair<std::string, std::string>>{
+           {"material.young=1e308", "material.young: outside the plausible range [1000, 1e+12] Pa, got 1e+308"},
+           {"material.young=10", "material.young: outside the plausible range"},
+           {"material.thickness=1e308", "material.thickness: outside the plausible range [1e-06, 0.01] m, got 1e+308"},
+           {"material.thickness=1e-9", "material.thickness: outside the plausible range"},
+           {"material.density=1e300", "material.density: outside the plausible range [1, 25000] kg/m^3, got 1e+300"},
+           {"material.bending_scale=1e300", "material.bending_scale: outside the plausible range [0, 10000], got 1e+300"},
+           {"sim.fps=1e-300", "sim.fps: outside the plausible range [1, 100000] frames/s, got 1e-300"},
+           {"sim.fps=0.5", "sim.fps: outside the plausible range"}}) {
+    try {
+      pt::load_scenario(file, {setting});
+      ADD_FAILURE() << setting << " accepted";
+    } catch (const pt::InputError& e) {
+      const std::string message = e.what();
+      EXPECT_EQ(message.rfind(file + ": ", 0), 0u) << message;
+      EXPECT_NE(message.find(error), std::string::npos) << setting << " → " << message;
+      EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    }
+  }
+  // The ends of the ranges are sheets too.
+  EXPECT_NO_THROW(pt::load_scenario(file, {"material.young=1e12", "material.thickness=0.01", "material.density=1",
+                                           "material.bending_scale=0", "sim.fps=1"}));
+  EXPECT_NO_THROW(pt::load_scenario(file, {"material.young=1000", "material.thickness=1e-6",
+                                           "material.density=25000", "material.bending_scale=1e4", "sim.fps=1e5"}));
+}
+
+// Issue 27: an axis whose norm overflows (or underflows) is still a direction.
+TEST(Scenario, HandAxisOfAnyFiniteSize) {
+  for (const char* axis : {"[1e200, 1e200, 0]", "[1e-200, 0, 1e-200]", "[1e308, -1e308, 1e308]"}) {
+    const std::string text = std::string(R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}],
+        "hands": [{"name": "L", "fingers": ["A"], "keys": [[0, {"rotate_deg": 10, "axis": )") + axis + "}]]}]}";
+    EXPECT_NO_THROW(pt::parse_scenario(text, "x.json")) << axis;
+  }
+}
+
+// Issue 27: check and run used different tests for "inside the sheet" (1e-9 m here, 1e-10 of the outline's
+// size in the mesher), so check passed a finger that run refused without its JSON path.
+TEST(BadInput, FingerJustOutsideTheOutline) {
+  const std::string message = error_of_text(
+      R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [-1e-10, 0.07]}]})", "x.json");
+  EXPECT_NE(message.find("x.json: fingers[0].at: finger A at (-1e-10, 0.07) is outside the sheet"), std::string::npos)
+      << message;
+  // Within the mesher's snap of the edge: on the sheet, and the mesher agrees (a vertex on the edge).
+  EXPECT_NO_THROW(pt::parse_scenario(
+      R"({"sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [-1e-12, 0.07]}]})", "x.json"));
+}
+
+// Issue 27: a name the CLI would turn into out/ itself.
+TEST(BadInput, EmptyNameInAFile) {
+  const std::string message =
+      error_of_text(R"({"name": "", "sheet": {"preset": "A6"}, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
+                    "x.json");
+  EXPECT_NE(message.find("x.json: name: must not be empty"), std::string::npos) << message;
+}
+
+// Issue 27: --set values that are not JSON numbers nor text: out of a double's range, or not UTF-8.
+TEST(BadInput, SettingsOutOfRangeOrNotUtf8) {
+  const std::string file = std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json";
+  for (const auto& [setting, error] : std::vector<std::pair<std::string, std::string>>{
+           {"material.young=1e400", "--set material.young=1e400: 1e400 is out of the range of a number"},
+           {"x=1e400", "--set x=1e400: 1e400 is out of the range of a number"},
+           {"material.young=-1e400", "--set material.young=-1e400: -1e400 is out of the range of a number"},
+           {"name=\xff\xfe", "--set name=\\xff\\xfe: not UTF-8 text (byte 5)"},
+           {"sim.\xc3=1", "--set sim.\\xc3=1: not UTF-8 text (byte 4)"}}) {
+    try {
+      pt::load_scenario(file, {setting});
+      ADD_FAILURE() << setting << " accepted";
+    } catch (const pt::InputError& e) {
+      const std::string message = e.what();
+      EXPECT_EQ(message.rfind(file + ": ", 0), 0u) << message;
+      EXPECT_NE(message.find(error), std::string::npos) << message;
+      for (const unsigned char c : message) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << "byte " << int(c) << " in " << message;
+    }
+  }
+  // UTF-8 text is still text.
+  EXPECT_EQ(pt::load_scenario(file, {"description=d\xc3\xa9j\xc3\xa0"}).description, "d\xc3\xa9j\xc3\xa0");
 }
 
 }  // namespace

@@ -41,7 +41,13 @@ void apply_queued_edits(QueuedEdits& edits, Simulation& sim) {
   for (const auto& [i, target] : edits.moves) {
     if (i < 0 || i >= static_cast<int32_t>(sim.sheet().fingers.size())) continue;
     const Finger& f = sim.sheet().fingers[i];
-    if (f.vertex >= 0 && !f.released) sim.move_finger(i, target);
+    if (f.vertex < 0 || f.released) continue;
+    // A drag along a ray nearly parallel to the view plane can reach past what the engine takes (each
+    // coordinate within 1000 m): that move is dropped and the finger keeps its last target.
+    try {
+      sim.move_finger(i, target);
+    } catch (const InputError&) {
+    }
   }
   edits.moves.clear();
   if (edits.material_edited) {

@@ -98,6 +98,23 @@ TEST(SheetView, ShowsTheSheetAndTheQueuedGoals) {
   EXPECT_EQ(view.fingers[0].name, "L");
 }
 
+// A drag along a ray nearly parallel to the view plane can queue a target farther than move_finger takes
+// (issue 27: it now refuses one beyond 1000 m): the move is dropped, the other moves are written.
+TEST(SheetView, AMoveTheEngineRefusesIsDropped) {
+  Simulation sim(notched_sheet_without_fingers());
+  ASSERT_EQ(sim.attach_finger("L", Vec2(0.054, 0.2)), 0);
+  ASSERT_EQ(sim.attach_finger("R", Vec2(0.094, 0.2)), 1);
+  const Vec3 kept = sim.sheet().fingers[0].keys.back().position;
+  const Vec3 goal = sim.sheet().fingers[1].target + Vec3(0.01, 0, 0);
+  QueuedEdits edits;
+  queue_finger_move(0, Vec3(0, 1e9, 0), edits);
+  queue_finger_move(1, goal, edits);
+  EXPECT_NO_THROW(apply_queued_edits(edits, sim));
+  EXPECT_TRUE(edits.moves.empty());
+  EXPECT_EQ(sim.sheet().fingers[0].keys.back().position, kept);
+  EXPECT_EQ(sim.sheet().fingers[1].keys.back().position, goal);
+}
+
 TEST(SheetView, LiveMaterialIsWrittenWithTheEdits) {
   Simulation sim(notched_sheet_without_fingers());
   QueuedEdits edits;

@@ -172,6 +172,26 @@ class Bindings(unittest.TestCase):
         with self.assertRaises(IndexError):
             sim.move_finger(99, (0, 0, 0))
 
+    def test_bad_finger_and_target_are_refused(self):
+        # Issue 27: before, NaN, inf and 1e300 were keyed; 999 raised "vector::_M_range_check", -1 showed
+        # 18446744073709551615.
+        sim = papertear.Simulation(SCENARIO, threads=1)
+        n = len(sim.fingers)
+        for bad in (999, -1, n, 2**40):
+            with self.assertRaises(IndexError) as err:
+                sim.move_finger(bad, (0, 0, 0))
+            self.assertEqual(str(err.exception), f"move_finger: no finger {bad} (the sheet has fingers 0 to {n - 1})")
+            with self.assertRaises(IndexError):
+                sim.release_finger(bad)
+        name = sim.fingers[0]["name"]
+        for target in ((float("nan"), 0, 0), (0, float("inf"), 0), (0, 0, -float("inf")), (1e300, 0, 0)):
+            with self.assertRaises(papertear.InputError) as err:
+                sim.move_finger(0, target)
+            self.assertTrue(str(err.exception).startswith(f"move_finger: finger 0 ({name}): target "), str(err.exception))
+        sim.step()
+        for f in sim.fingers:
+            self.assertTrue(np.all(np.isfinite(sim.positions[f["vertex"]])), f["name"])
+
 
 class Readme(unittest.TestCase):
     def test_readme_python_example_runs(self):
