@@ -1,4 +1,4 @@
-// Experiment (eleventh session; not built by CMake): would 512-bit products beat the engine's AVX2 panel
+// Experiment (bench/results/2026-11-23-11-notes.txt; not built by CMake): would 512-bit products beat the engine's AVX2 panel
 // product on a host that has AVX-512? The tile below is the AVX2 kernel's (systems/dense_kernels_avx2.cpp)
 // with eight-lane vectors: every entry one fused multiply-add chain over the inner index in increasing
 // order, so its results are bit-identical to the AVX2 kernel's (checked below). Shapes are the

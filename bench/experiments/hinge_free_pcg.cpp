@@ -1,4 +1,4 @@
-// Experiment (eighth session, bench/results/2026-11-22-8-notes.txt §8; not built by CMake): conjugate
+// Experiment (bench/results/2026-11-22-8-notes.txt §8; not built by CMake): conjugate
 // gradients on the implicit integrator's matrix of the A4 bench scene, preconditioned by the factor of the
 // same matrix without the bending couplings between a hinge's two opposite vertices (the only blocks outside
 // the triangle graph, and the cause of most of the factorisation's fill). It includes the integrator's

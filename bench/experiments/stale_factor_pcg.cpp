@@ -1,4 +1,4 @@
-// Experiment (ninth session; not built by CMake): can a substep of the 10 000-triangle A4 bench scene solve
+// Experiment (bench/results/2026-11-23-9-notes.txt; not built by CMake): can a substep of the 10 000-triangle A4 bench scene solve
 // its system by conjugate gradients preconditioned with the factor of an earlier substep's matrix, instead
 // of factoring its own? The scene's fingers move as in the benchmark (they pull apart and twist over 2 s),
 // so the sheet swings and its corotated stiffness turns from substep to substep. For each lag L it factors
