@@ -327,7 +327,7 @@ int main(int argc, char** argv) {
   CLI::Option* run_out = run_cmd->add_option("--out", run.out, "output directory (default: out/<name>)");
   run_cmd->add_option("--frames", run.frames, "frames to simulate (default: the scenario's)")
       ->check(CLI::Range(1, 10'000'000));
-  run_cmd->add_option("--threads", run.threads, "worker threads (default: 2)")->check(CLI::Range(1, 1024));
+  run_cmd->add_option("--threads", run.threads, "worker threads (default: 2)")->check(CLI::Range(1, pt::kMaxThreads));
   run_cmd->add_flag("--obj", run.obj, "write DIR/frames/frame_NNNN.obj + .mtl for every frame (textured: paper.png, carved_NNNN.png)");
   run_cmd->add_flag("--svg", run.svg, "write DIR/pattern.svg (mesh, regions, candidates, fingers, tears)");
   run_cmd->add_flag("--png", run.png, "write DIR/pattern.png (the pattern with detailed tears at texture resolution)");
@@ -343,7 +343,7 @@ int main(int argc, char** argv) {
   batch_cmd->add_option("SCENARIO", batch.scenario, "scenario file (JSON)")->required();
   batch_cmd->add_option("--sheets", batch.sheets, "number of sheets")->required()->check(CLI::Range(1, 1'000'000));
   batch_cmd->add_option("--set", batch.settings, set_help);
-  batch_cmd->add_option("--threads", batch.threads, "worker threads (default: 2)")->check(CLI::Range(1, 1024));
+  batch_cmd->add_option("--threads", batch.threads, "worker threads (default: 2)")->check(CLI::Range(1, pt::kMaxThreads));
   batch_cmd->add_option("--frames", batch.frames, "frames per sheet (default: the scenario's)")
       ->check(CLI::Range(1, 10'000'000));
   CLI::Option* batch_out = batch_cmd->add_option("--out", batch.out, "output directory (default: out/<name>-batch)");

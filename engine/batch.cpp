@@ -125,6 +125,9 @@ Scenario batch_sheet_scenario(const Scenario& base, const BatchOptions& options,
 
 BatchResult run_batch(const Scenario& base, const BatchOptions& options,
                       const std::function<void(int32_t, int32_t)>& progress) {
+  if (options.threads < 1 || options.threads > kMaxThreads || options.threads_per_sheet > kMaxThreads)
+    throw InputError("batch threads: must be 1 to " + std::to_string(kMaxThreads) + ", got " +
+                     std::to_string(std::max(options.threads, options.threads_per_sheet)));
   BatchResult result;
   result.sheets = options.sheets;
   result.threads = options.threads;

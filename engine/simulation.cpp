@@ -507,8 +507,19 @@ struct Simulation::Impl {
 
 // Scenarios built in code (viewer, embedding, batches) get the same checks as files: a reversed key or a
 // NaN target would otherwise run (issue 9, tests/hostile_test.cpp).
+namespace {
+
+const EngineOptions& checked_options(const EngineOptions& options) {
+  if (options.threads < 1 || options.threads > kMaxThreads)
+    throw InputError("threads: must be 1 to " + std::to_string(kMaxThreads) + ", got " +
+                     std::to_string(options.threads));
+  return options;
+}
+
+}  // namespace
+
 Simulation::Simulation(const Scenario& scenario, const EngineOptions& options)
-    : impl_((validate_scenario(scenario), std::make_unique<Impl>(scenario, options))) {}
+    : impl_((validate_scenario(scenario), std::make_unique<Impl>(scenario, checked_options(options)))) {}
 Simulation::~Simulation() = default;
 
 void Simulation::step() { impl_->step(); }

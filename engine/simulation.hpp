@@ -57,8 +57,12 @@ struct FrameStats {
   int32_t candidates = 0;
 };
 
+// The most worker threads a simulation or a batch takes (the command line's --threads range too): a
+// task arena of 100 000 threads crashed on destruction.
+inline constexpr int32_t kMaxThreads = 1024;
+
 struct EngineOptions {
-  int32_t threads = 2;           // task arena concurrency
+  int32_t threads = 2;           // task arena concurrency, 1 to kMaxThreads (else InputError)
   int32_t parallel_grain = 512;  // triangles per task; smaller sheets run their kernels serially
   bool check_invariants = false; // run check_mesh_invariants after every remesh (tests, soaks)
   // Lawson flips around each cut (systems/mesh_quality.hpp). Off by default: measured on the Fig. 14

@@ -149,7 +149,9 @@ PYBIND11_MODULE(papertear, m) {
 
   py::class_<PySim>(m, "Simulation", "One simulated sheet.")
       .def(py::init([](const py::object& src, int32_t threads, bool check_invariants) {
-             if (threads < 1) throw py::value_error("threads must be at least 1");
+             if (threads < 1 || threads > pt::kMaxThreads)
+               throw py::value_error("threads must be 1 to " + std::to_string(pt::kMaxThreads) + ", got " +
+                                     std::to_string(threads));
              pt::EngineOptions options;
              options.threads = threads;
              options.check_invariants = check_invariants;

@@ -7,6 +7,7 @@
 // Also the soak (DISABLED_: run by `make soak` / scripts/soak.sh with --gtest_also_run_disabled_tests):
 // 10 000 frames of tests/soak/soak.json, NaN check every frame, per-1000-frame frame time, triangle count
 // and memory (getrusage peak RSS).
+#include "engine/batch.hpp"
 #include "engine/result_writer.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
@@ -543,4 +544,31 @@ TEST(Hostile, MoveFingerRefusesBadFingersAndTargets) {
   EXPECT_NE(sim.state_hash(), before);
   EXPECT_EQ(message([&] { sim.move_finger(0, Vec3(0.035, 0.09, 0.02)); }), "no error");
   EXPECT_EQ(message([&] { sim.move_finger(1, Vec3(0, -1000, 0)); }), "no error");  // far, but a place
+}
+
+// Issue 27, item 3: a simulation of 100 000 threads crashed on destruction inside its task arena. The
+// library refuses a thread count outside 1 to kMaxThreads with an InputError naming it, and builds at
+// the cap; a batch does the same.
+TEST(Hostile, ThreadCountsOutsideTheCapAreRefused) {
+  const Scenario s = parse_scenario(scene("threads", pair_apart(0.03, 0.1, 1.5), 2), "threads.json");
+  for (const int32_t bad : {0, -3, kMaxThreads + 1, 100000}) {
+    EngineOptions o;
+    o.threads = bad;
+    try {
+      Simulation sim(s, o);
+      ADD_FAILURE() << bad << " threads accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("threads: must be 1 to 1024, got " + std::to_string(bad)), std::string::npos)
+          << e.what();
+    }
+    BatchOptions b;
+    b.sheets = 1;
+    b.threads = bad;
+    EXPECT_THROW(run_batch(s, b), InputError) << bad;
+  }
+  EngineOptions at_cap;
+  at_cap.threads = kMaxThreads;
+  Simulation sim(s, at_cap);
+  sim.step();
+  EXPECT_EQ(sim.threads(), kMaxThreads);
 }

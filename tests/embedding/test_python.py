@@ -172,6 +172,11 @@ class Bindings(unittest.TestCase):
         with self.assertRaises(IndexError):
             sim.move_finger(99, (0, 0, 0))
 
+    def test_thread_counts_outside_the_cap_are_refused(self):
+        for bad in (0, 1025, 100000):
+            with self.assertRaisesRegex(ValueError, "threads must be 1 to 1024"):
+                papertear.Simulation(SCENARIO, threads=bad)
+
     def test_bad_finger_and_target_are_refused(self):
         # Issue 27: before, NaN, inf and 1e300 were keyed; 999 raised "vector::_M_range_check", -1 showed
         # 18446744073709551615.
