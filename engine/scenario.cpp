@@ -43,6 +43,9 @@ constexpr double kMinDensity = 1, kMaxDensity = 25'000;        // kg/m³: aeroge
 constexpr double kMinYoung = 1e3, kMaxYoung = 1e12;            // Pa: a soft gel to diamond
 constexpr double kMaxBendingScale = 1e4;                       // of paper's E e³ / 12(1 − ν²)
 constexpr double kMinFps = 1;                                  // frames/s: a frame lasts at most a second
+// J/m²: below 10 a sheet tears under its own weight (a trouser start at Ef·e/2 ≈ 5e-4 N; tissue paper is
+// ~2 500, office paper 2.5e4), and at 0 it shattered into thousands of pieces.
+constexpr double kMinFractureC = 10, kMaxFractureC = 1e9;
 constexpr int kMaxDepth = 32;
 
 std::string file_label(const std::string& path) { return path.empty() ? "<scenario>" : path; }
@@ -532,7 +535,7 @@ void validate_scenario(const Scenario& s) {
   check_non_negative(file, "material.damping", m.damping);
   check_range(file, "material.tip_damage", m.tip_damage, 0, 1, false);
   check_positive(file, "material.fiber_scale", m.fiber_scale);
-  check_non_negative(file, "material.fracture_c", m.fracture_c);
+  check_plausible(file, "material.fracture_c", m.fracture_c, kMinFractureC, kMaxFractureC, "J/m^2");
   check_non_negative(file, "material.speed", m.speed);
   check_positive(file, "material.max_step", m.max_step);
   check_range(file, "material.fiber_floor", m.fiber_floor, 0, 1, false);

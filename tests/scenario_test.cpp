@@ -493,7 +493,10 @@ TEST(BadInput, ImplausiblePhysicalConstants) {
            {"material.density=1e300", "material.density: outside the plausible range [1, 25000] kg/m^3, got 1e+300"},
            {"material.bending_scale=1e300", "material.bending_scale: outside the plausible range [0, 10000], got 1e+300"},
            {"sim.fps=1e-300", "sim.fps: outside the plausible range [1, 100000] frames/s, got 1e-300"},
-           {"sim.fps=0.5", "sim.fps: outside the plausible range"}}) {
+           {"sim.fps=0.5", "sim.fps: outside the plausible range"},
+           // Issue 27, item 7: no fracture energy shattered the sheet into ~1 500 pieces.
+           {"material.fracture_c=0", "material.fracture_c: outside the plausible range [10, 1e+09] J/m^2, got 0"},
+           {"material.fracture_c=1", "material.fracture_c: outside the plausible range"}}) {
     try {
       pt::load_scenario(file, {setting});
       ADD_FAILURE() << setting << " accepted";
@@ -506,7 +509,7 @@ TEST(BadInput, ImplausiblePhysicalConstants) {
   }
   // The ends of the ranges are sheets too.
   EXPECT_NO_THROW(pt::load_scenario(file, {"material.young=1e12", "material.thickness=0.01", "material.density=1",
-                                           "material.bending_scale=0", "sim.fps=1"}));
+                                           "material.bending_scale=0", "sim.fps=1", "material.fracture_c=10"}));
   EXPECT_NO_THROW(pt::load_scenario(file, {"material.young=1000", "material.thickness=1e-6",
                                            "material.density=25000", "material.bending_scale=1e4", "sim.fps=1e5"}));
 }
