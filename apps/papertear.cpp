@@ -18,6 +18,7 @@
 
 #include <cerrno>
 #include <chrono>
+#include <regex>
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -152,13 +153,34 @@ class OutputDir {
     return partial_frames_;
   }
 
+  // The new frames replace an earlier run's in DIR/frames/: only the files --obj writes go, a user's own
+  // files there stay.
   void end_frames() {
     const fs::path frames = dir_ / "frames";
     std::error_code ec;
-    fs::remove_all(frames, ec);
-    fs::rename(partial_frames_, frames, ec);
-    if (ec) throw std::runtime_error("cannot rename " + partial_frames_.string() + ": " + ec.message());
+    if (!fs::exists(frames, ec)) {
+      fs::rename(partial_frames_, frames, ec);
+      if (ec) throw std::runtime_error("cannot rename " + partial_frames_.string() + ": " + ec.message());
+      partial_frames_.clear();
+      return;
+    }
+    if (!fs::is_directory(frames, ec)) throw std::runtime_error(frames.string() + " exists and is not a directory");
+    std::vector<fs::path> old;
+    for (const fs::directory_entry& e : fs::directory_iterator(frames, ec))
+      if (e.is_regular_file() && is_frame_output(e.path().filename().string())) old.push_back(e.path());
+    for (const fs::path& f : old) fs::remove(f, ec);
+    for (const fs::directory_entry& e : fs::directory_iterator(partial_frames_, ec)) {
+      fs::rename(e.path(), frames / e.path().filename(), ec);
+      if (ec) throw std::runtime_error("cannot move " + e.path().string() + " into " + frames.string() + ": " + ec.message());
+    }
+    fs::remove(partial_frames_, ec);
     partial_frames_.clear();
+  }
+
+  // What --obj writes into frames/: frame_NNNN.obj and .mtl, carved_NNNN.png, paper.png.
+  static bool is_frame_output(const std::string& name) {
+    static const std::regex pattern(R"((frame_[0-9]{4,}\.(obj|mtl))|(carved_[0-9]{4,}\.png)|(paper\.png))");
+    return std::regex_match(name, pattern);
   }
 
  private:

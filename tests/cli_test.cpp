@@ -288,6 +288,21 @@ TEST_F(Cli, ObjFramesAndNoLeftovers) {
   EXPECT_EQ(j["threads"], 1);
 }
 
+// Issue 27, item 16: a run's frames replace an earlier run's in DIR/frames/, and a file the user keeps
+// there is not deleted.
+TEST_F(Cli, ObjFramesKeepTheUsersFiles) {
+  fs::create_directories(dir_ / "o" / "frames");
+  { std::ofstream(dir_ / "o" / "frames" / "my.txt") << "mine"; }
+  { std::ofstream(dir_ / "o" / "frames" / "frame_0009.obj") << "an earlier run's"; }
+  const Result r = run({"run", good().string(), "--out", "o", "--obj", "--frames", "2", "--threads", "1"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(read_file(dir_ / "o" / "frames" / "my.txt"), "mine");
+  EXPECT_FALSE(fs::exists(dir_ / "o" / "frames" / "frame_0009.obj"));
+  EXPECT_TRUE(fs::exists(dir_ / "o" / "frames" / "frame_0002.obj"));
+  for (const auto& e : fs::directory_iterator(dir_ / "o"))
+    EXPECT_EQ(e.path().filename().string().find(".frames.partial"), std::string::npos) << e.path();
+}
+
 TEST_F(Cli, SameHashAtOneAndTwoThreads) {
   const fs::path g = good();
   ASSERT_EQ(run({"run", g.string(), "--out", "t1", "--threads", "1"}).status, 0);
