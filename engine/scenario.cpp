@@ -587,9 +587,13 @@ void validate_scenario(const Scenario& s) {
     check_vec(file, child(p, "at"), f.at.data(), 2, kMaxCoordinate);
     if (!point_on_sheet(outline, f.at))  // the mesher's test: what check accepts, run meshes
       fail(file, child(p, "at"), "finger " + f.name + " at " + fmt_uv(f.at) + " is outside the sheet");
-    for (size_t k = 0; k < i; ++k)
-      if ((s.fingers[k].at - f.at).norm() < 1e-9)
-        fail(file, child(p, "at"), "finger " + f.name + " is at the same point as finger " + s.fingers[k].name);
+    // Two fingers may hold the same point one after the other, not at once.
+    for (size_t k = 0; k < i; ++k) {
+      const FingerSpec& o = s.fingers[k];
+      if ((o.at - f.at).norm() < 1e-9 && f.attach < o.release && o.attach < f.release)
+        fail(file, child(p, "at"), "finger " + f.name + " is at the same point as finger " + o.name +
+                                       " while both hold it");
+    }
     std::vector<double> times;
     for (size_t k = 0; k < f.keys.size(); ++k) {
       times.push_back(f.keys[k].t);

@@ -1,6 +1,7 @@
 // Scenario loading (DESIGN §6): defaults, every key, and one test per kind of bad input. Each bad
 // input must be an InputError whose one-line message names the file and the JSON path or the problem.
 #include "engine/scenario.hpp"
+#include "engine/simulation.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -567,3 +568,29 @@ TEST(BadInput, SettingsOutOfRangeOrNotUtf8) {
 }
 
 }  // namespace
+
+// Issue 27, item 21: a finger may take hold of the point an earlier finger let go of; two fingers may
+// not hold one point at the same time. The later finger holds a vertex there once it attaches.
+TEST(Scenario, AFingerMayHoldWhereAnEarlierOneLetGo) {
+  const auto scenario = [](double release_a, double attach_b) {
+    return R"({"sheet": {"preset": "A6", "triangles": 100}, "sim": {"frames": 12},
+               "fingers": [{"name": "A", "at": [0.05, 0.14], "release": )" +
+           std::to_string(release_a) + R"(}, {"name": "B", "at": [0.05, 0.14], "attach": )" +
+           std::to_string(attach_b) + R"(}, {"name": "C", "at": [0.02, 0.02]}]})";
+  };
+  const pt::Scenario later = pt::parse_scenario(scenario(0.1, 0.2), "later.json");
+  pt::Simulation sim(later);
+  for (int i = 0; i < 12; ++i) sim.step();
+  const pt::Finger& b = sim.sheet().fingers[1];
+  EXPECT_TRUE(sim.sheet().fingers[0].released);
+  ASSERT_GE(b.vertex, 0);
+  EXPECT_NEAR((sim.sheet().verts.rest[b.vertex] - pt::Vec2(0.05, 0.14)).norm(), 0, 1e-12);
+  try {
+    pt::parse_scenario(scenario(0.3, 0.2), "overlap.json");
+    ADD_FAILURE() << "two fingers holding one point at once accepted";
+  } catch (const pt::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("fingers[1].at: finger B is at the same point as finger A while both hold it"),
+              std::string::npos)
+        << e.what();
+  }
+}
