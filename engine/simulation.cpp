@@ -220,8 +220,6 @@ struct Simulation::Impl {
 
   double time_at(int32_t f) const { return f / scenario.sim.fps; }
 
-  // Where finger i keeps its vertex at fraction alpha of the frame: its target plus the offset the paper
-  // has slid by.
   // Finger i's target at fraction alpha of the frame's motion, and the point its pinch holds (the target
   // plus how far the paper has slid through it).
   Vec3 target_at(size_t i, double alpha) const {
@@ -306,8 +304,9 @@ struct Simulation::Impl {
   }
 
   // Quasi-static tearing at the substeps' pace: the frame's physics stops at the first substep after which
-  // a finger holds more than its grip or the tearing step would cut (a tip advances or a tear starts), the tearing step runs on that state, and the
-  // frame's remaining substeps follow it (resume_substep). Fingers do not out-run the tear.
+  // a finger holds more than its grip or the tearing step would cut (a tip advances or a tear starts), the
+  // tearing step runs on that state, and the frame's remaining substeps follow it (resume_substep).
+  // Fingers do not out-run the tear.
   bool stops_for_tearing() const {
     return tearing_params.direction == TearDirection::TensionRays && !use_projective &&
            tearing_params.relaxation == TearRelaxation::AfterEachCut;
