@@ -123,15 +123,31 @@ void refresh_role_flags(const std::vector<Finger>& fingers, const std::vector<Ti
   for (const Tip& t : tips) flags[t.vertex] |= kTip;
 }
 
+namespace {
+
+// A new tear not started here: one at a finger is never shielded (the finger itself loads the sheet).
+bool start_shielded(const TearingParams& params, const Candidate& c, const Sheet& sheet) {
+  return c.tear < 0 && c.kind != StartKind::Finger &&
+         shielded_by_active_tip(sheet.verts.rest, sheet.tips, sheet.verts.rest[c.vertex], params.shielding_radius);
+}
+
+// The tension rays' decision for candidate c, a tip oriented by its last segment.
+PropagationDecision tension_ray_candidate_decision(const TearingParams& params, const Candidate& c,
+                                                   const Sheet& sheet, TearingScratch& scratch) {
+  PropagationParams prop = params.propagation;
+  if (c.tear >= 0) prop.previous_direction = tip_direction(sheet.tips, c.tear);
+  return decide_by_tension_rays(sheet, c.vertex, c.fracture_energy, c.tear < 0, prop, params.membrane,
+                                params.rays, scratch.rays);
+}
+
+}  // namespace
+
 int32_t propagate_candidate(const TearingParams& params, const Candidate& c, int32_t frame, Sheet& sheet,
                             TearingLog& log, TearingTimes& times, TearingScratch& scratch) {
   PropagationDecision decision;
   if (params.direction == TearDirection::TensionRays) {
     ScopedTimer timer(times.propagation);
-    PropagationParams prop = params.propagation;
-    if (c.tear >= 0) prop.previous_direction = tip_direction(sheet.tips, c.tear);
-    decision = decide_by_tension_rays(sheet, c.vertex, c.fracture_energy, c.tear < 0, prop, params.membrane,
-                                      params.rays, scratch.rays);
+    decision = tension_ray_candidate_decision(params, c, sheet, scratch);
   } else {
     ForceClusters clusters;
     {
@@ -177,16 +193,11 @@ int32_t propagate_candidate(const TearingParams& params, const Candidate& c, int
 bool tension_rays_would_tear(const TearingParams& params, const std::vector<Candidate>& candidates,
                              const Sheet& sheet, TearingScratch& scratch) {
   for (const Candidate& c : candidates) {
-    if (c.vertex < 0 || c.vertex >= sheet.verts.size()) continue;
-    if (c.tear < 0 && c.kind != StartKind::Finger &&
-        shielded_by_active_tip(sheet.verts.rest, sheet.tips, sheet.verts.rest[c.vertex], params.shielding_radius))
-      continue;
-    PropagationParams prop = params.propagation;
-    if (c.tear >= 0) prop.previous_direction = tip_direction(sheet.tips, c.tear);
-    const PropagationDecision d = decide_by_tension_rays(sheet, c.vertex, c.fracture_energy, c.tear < 0, prop,
-                                                         params.membrane, params.rays, scratch.rays);
+    if (c.vertex < 0 || c.vertex >= sheet.verts.size() || start_shielded(params, c, sheet)) continue;
+    const PropagationDecision d = tension_ray_candidate_decision(params, c, sheet, scratch);
     if (!d.propagate) continue;
-    if (c.tear >= 0 && !tip_direction_allowed(prop.previous_direction, d.direction, params.max_tip_turn)) continue;
+    if (c.tear >= 0 && !tip_direction_allowed(tip_direction(sheet.tips, c.tear), d.direction, params.max_tip_turn))
+      continue;
     return true;
   }
   return false;
@@ -203,10 +214,7 @@ void run_tearing_step(const TearingParams& params, const TearingHooks& hooks, co
     const Vec2 uv = sheet.verts.rest[c.vertex];
     if (!visited.insert({uv.x(), uv.y()}).second) continue;
     if (c.tear >= 0 && !params.quasi_static && extended.count(c.tear)) continue;
-    // A finger's start is not shielded: the finger itself loads the sheet there.
-    if (c.tear < 0 && c.kind != StartKind::Finger &&
-        shielded_by_active_tip(sheet.verts.rest, sheet.tips, uv, params.shielding_radius))
-      continue;
+    if (start_shielded(params, c, sheet)) continue;
 
     const int32_t tear_id = propagate_candidate(params, c, frame, sheet, log, times, scratch);
     if (tear_id < 0) continue;
