@@ -305,49 +305,110 @@ struct Simulation::Impl {
 
   // Quasi-static tearing at the substeps' pace: the frame's physics stops at the first substep after which
   // a finger holds more than its grip or the tearing step would cut (a tip advances or a tear starts), the
-  // tearing step runs on that state, and the frame's remaining substeps follow it (resume_substep).
-  // Fingers do not out-run the tear.
+  // tearing step runs on that state, and the frame's remaining substeps follow it (resume_substep), each
+  // again stopping where the next cut is due. Fingers do not out-run the tear: between two substeps a taut
+  // strip's pull grows by up to a few newtons, so substeps that ran on unchecked after a start held the
+  // fingers past 5 N (docs/tearing.md "Quasi-static tearing").
   bool stops_for_tearing() const {
     return tearing_params.direction == TearDirection::TensionRays && !use_projective &&
            tearing_params.relaxation == TearRelaxation::AfterEachCut;
   }
 
-  void run_physics() {
-    ScopedTimer timer(profile.integrate);
+  // Substeps first..n of the frame; returns true when it stopped for tearing (resume_substep set).
+  bool run_substeps_from(int32_t first) {
     const int32_t n = scenario.sim.substeps;
     resume_substep = -1;
     physics_alpha = 1.0;
     const bool may_stop = stops_for_tearing();
-    for (int32_t s = 1; s <= n; ++s) {
+    for (int32_t s = first; s <= n; ++s) {
+      if (may_stop && s < n) save_substep_start();
       substep(static_cast<double>(s) / n, !may_stop || s == n ? Reactions::Grip : Reactions::Read);
-      if (may_stop && s < n && (grip_exceeded(sheet.fingers) ||
-                                  tension_rays_would_tear(tearing_params, candidates, sheet, tearing_scratch))) {
-        resume_substep = s + 1;
-        physics_alpha = static_cast<double>(s) / n;
-        return;
+      if (!may_stop || s == n) continue;
+      // The substep left the reactions of the state it started from; the stop reads the state it reached,
+      // else a start is cut one substep late, on a strip whose pull has grown meanwhile.
+      if (!stop_due()) {
+        read_reactions(sheet.verts, scenario.sim.gravity, sheet.fingers);
+        continue;
+      }
+      resume_substep = s + 1;
+      physics_alpha = refine_stop(static_cast<double>(s - 1) / n, static_cast<double>(s) / n);
+      read_reactions(sheet.verts, scenario.sim.gravity, sheet.fingers);
+      return true;
+    }
+    return false;
+  }
+
+  // Whether the state a substep reached is one the frame's physics stops at: a finger past its grip, or a
+  // cut the tearing step would make. Leaves that state's forces and reactions (not yet in max_force).
+  bool stop_due() {
+    internal_forces();
+    read_transient_reactions(sheet.verts, scenario.sim.gravity, sheet.fingers);
+    return grip_exceeded(sheet.fingers) || tension_rays_would_tear(tearing_params, candidates, sheet, tearing_scratch);
+  }
+
+  // A substep over which a taut strip's pull jumped (a start at the strain limit: 1.9 → 5.5 N in one of
+  // start-finger's substeps) stops where Griffith's criterion was already passed partway through it. An
+  // implicit Euler substep moves every vertex along a straight line, x + τ h v⁺ for τ ∈ [0, 1], the held
+  // ones included, so the states it passed through are known without another solve: bisect τ between the
+  // state the substep started from (stop_before) and the one it reached, until the fingers' reactions
+  // differ by at most kStopForceResolution across the bracket, and leave the earliest stopping state found.
+  // Returns its finger-motion fraction between `before` and `after`.
+  static constexpr double kStopForceResolution = 0.25;  // N
+  static constexpr int kMaxStopRefinements = 4;
+  double refine_stop(double before, double after) {
+    std::vector<Vec3>& x = sheet.verts.x;
+    stop_after = x;
+    std::vector<Finger> reacted_before = stop_before.fingers;  // the fingers at the bracket's ends
+    std::vector<Finger> reacted_after = sheet.fingers;
+    double lo = 0, hi = 1;
+    bool forces_of_after = true;  // verts.force is of stop_after's state
+    for (int level = 0; level < kMaxStopRefinements && reaction_jump(reacted_before, reacted_after) > kStopForceResolution;
+         ++level) {
+      const double mid = 0.5 * (lo + hi);
+      for (size_t i = 0; i < x.size(); ++i) x[i] = stop_before.x[i] + mid * (stop_after[i] - stop_before.x[i]);
+      forces_of_after = stop_due();
+      if (forces_of_after) {
+        hi = mid;
+        stop_after = x;
+        reacted_after = sheet.fingers;
+      } else {
+        lo = mid;
+        reacted_before = sheet.fingers;
       }
     }
+    x = stop_after;
+    sheet.fingers = reacted_after;
+    if (!forces_of_after) internal_forces();
+    return before + hi * (after - before);
   }
 
-  // The substeps of a frame its physics stopped early for.
-  void finish_physics() {
-    if (resume_substep < 0) return;
-    {
-      ScopedTimer timer(profile.integrate);
-      const int32_t n = scenario.sim.substeps;
-      for (int32_t s = resume_substep; s <= n; ++s) substep(static_cast<double>(s) / n);
-    }
-    resume_substep = -1;
-    physics_alpha = 1.0;
-    ScopedTimer timer(profile.forces);
-    compute_forces();
+  // The largest change of a holding finger's reaction between two readings, N.
+  static double reaction_jump(const std::vector<Finger>& earlier, const std::vector<Finger>& later) {
+    double jump = 0;
+    for (size_t i = 0; i < later.size(); ++i)
+      if (later[i].vertex >= 0) jump = std::max(jump, (later[i].reaction - earlier[i].reaction).norm());
+    return jump;
   }
 
-  // Membrane corner forces (kept for clustering), per-vertex sums and bending, then finger reactions.
-  // `of_the_motion`: the state is one of the sheet's motion (a frame's end, or where its physics stopped
-  // for tearing), not the one relaxation substep after a cut, whose lips are still snapping open; only
-  // those count for the run's max_strain.
-  void compute_forces(bool of_the_motion = true) {
+  // The state a substep starts from, for the stop's bisection.
+  struct SubstepStart {
+    std::vector<Vec3> x;
+    std::vector<Finger> fingers;
+  };
+  SubstepStart stop_before;
+  std::vector<Vec3> stop_after;
+  void save_substep_start() {
+    stop_before.x = sheet.verts.x;
+    stop_before.fingers = sheet.fingers;
+  }
+
+  void run_physics() {
+    ScopedTimer timer(profile.integrate);
+    run_substeps_from(1);
+  }
+
+  // Membrane corner forces (kept for clustering), per-vertex sums and bending.
+  void internal_forces() {
     Vertices& V = sheet.verts;
     Triangles& T = sheet.tris;
     if (bending_version != sheet.topology_version) {
@@ -361,6 +422,15 @@ struct Simulation::Impl {
       gather_corner_forces(sheet.topo, T.tri, T.corner_force, b, e, V.force);
     });
     add_bending_forces(V.x, bending, V.force);
+  }
+
+  // The internal forces, then the finger reactions. `of_the_motion`: the state is one of the sheet's motion
+  // (a frame's end, or where its physics stopped for tearing), not the one relaxation substep after a cut,
+  // whose lips are still snapping open; only those count for the run's max_strain.
+  void compute_forces(bool of_the_motion = true) {
+    Vertices& V = sheet.verts;
+    Triangles& T = sheet.tris;
+    internal_forces();
     // The run's largest principal strain (result.json "max_strain"): per triangle in the ranges (each
     // writes its own slots), the max taken serially.
     if (of_the_motion) {
@@ -376,7 +446,8 @@ struct Simulation::Impl {
       if (f.vertex < 0) f.reaction.setZero();
       else if (f.slipping) f.reaction = slipping_pinch_force(V, f, hold_point(i, physics_alpha), kPinchStiffness);
     }
-    check_grip(V, scenario.sim.gravity, sheet.fingers);
+    if (of_the_motion) check_grip(V, scenario.sim.gravity, sheet.fingers);
+    else read_transient_reactions(V, scenario.sim.gravity, sheet.fingers);
   }
 
   void run_forces() {
@@ -420,8 +491,26 @@ struct Simulation::Impl {
     compute_forces(false);
   }
 
-  // Paper Fig. 4 steps 2–4 for each potential tearing point in turn (systems/tearing/tearing_step.hpp).
+  // Paper Fig. 4 steps 2–4 for each potential tearing point in turn (systems/tearing/tearing_step.hpp),
+  // at every stop of the frame's physics: after each tearing step the frame's remaining substeps run until
+  // the next stop, whose state gets the graph's forces, regions and candidates and its own tearing step.
   void run_tearing() {
+    run_tearing_once();
+    while (resume_substep >= 0) {
+      bool stopped;
+      {
+        ScopedTimer timer(profile.integrate);
+        stopped = run_substeps_from(resume_substep);
+      }
+      run_forces();
+      if (!stopped) return;
+      run_regions();
+      run_candidates();
+      run_tearing_once();
+    }
+  }
+
+  void run_tearing_once() {
     TearingHooks hooks;
     hooks.relax = [this](int32_t tear_id) { relax_after_cut(tear_id); };
     hooks.update_forces = [this] { run_forces(); };
@@ -432,7 +521,6 @@ struct Simulation::Impl {
     profile.propagation += times.propagation;
     profile.remeshing += times.remeshing;
     profile.relaxation += times.relaxation;
-    finish_physics();
   }
 
   void run_carving() {

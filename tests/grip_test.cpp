@@ -68,3 +68,19 @@ TEST(Grip, RegripsWhereThePaperIsOrLetsGoPastItsReach) {
   EXPECT_TRUE(fingers[1].released);
   EXPECT_TRUE(fingers[1].let_go);
 }
+
+// A transient state (the relaxation substep after a cut) gives the tearing step its reactions, but the
+// fingers never held it: neither a slip nor max_force.
+TEST(Grip, TransientReactionsAreReadButNotHeld) {
+  Vertices v = two_vertices();
+  std::vector<Finger> fingers{finger_on(0, 15)};
+  v.force[0] = Vec3(3, 0, 0);
+  read_reactions(v, Vec3::Zero(), fingers);
+  EXPECT_NEAR(fingers[0].max_force, 3, 1e-12);
+  v.force[0] = Vec3(0, 40, 0);  // past the grip
+  read_transient_reactions(v, Vec3::Zero(), fingers);
+  EXPECT_TRUE(fingers[0].reaction.isApprox(Vec3(0, -40, 0)));
+  EXPECT_NEAR(fingers[0].max_force, 3, 1e-12);
+  EXPECT_FALSE(fingers[0].slipping);
+  EXPECT_EQ(fingers[0].slips, 0);
+}

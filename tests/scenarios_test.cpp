@@ -162,15 +162,15 @@ TEST(Scenarios, PushedBentOrWavedSheetsDoNotTearAndHoldLittle) {
   }
 }
 
-// Sheets torn from their border by fingers near it tear without a finger slipping; those that meet the
-// paper's ~1 N scale hold at most 5 N on any finger (start-finger, torn-in-two and the zigzag peak at
-// 5.5-7.2 N where a strip between two fingers stiffens past the strain limit: docs/tearing.md).
+// Sheets torn from their border by fingers near it tear without a finger slipping, and no finger holds
+// more than 5 N but the zigzag's (5.2 N: its hands shear the strip between them in plane before the
+// junction at the notch starts; docs/tearing.md "Known gaps").
 TEST(Scenarios, BorderTearsStartWithoutASlip) {
   const std::pair<const char*, double> scenes[] = {
       {"demo.json", 5.0},          {"fig13-twist.json", 5.0},     {"fig14-straight.json", 5.0},
       {"fig14-inplane.json", 5.0}, {"fig15-curved.json", 5.0},    {"fig16-direction.json", 5.0},
-      {"fig21-notch.json", 5.0},   {"start-inward.json", 5.0},    {"start-finger.json", 8.0},
-      {"torn-in-two.json", 8.0},   {"fig16-zigzag.json", 8.0}};
+      {"fig21-notch.json", 5.0},   {"start-inward.json", 5.0},    {"start-finger.json", 5.0},
+      {"torn-in-two.json", 5.0},   {"fig16-zigzag.json", 6.0}};
   for (const auto& [file, peak] : scenes) {
     ScenarioRun r = run_scenario(load_scenario(scenario_path(file)));
     EXPECT_FALSE(r.sheet().tears.empty()) << file;
@@ -179,6 +179,30 @@ TEST(Scenarios, BorderTearsStartWithoutASlip) {
       EXPECT_LE(f.max_force, peak) << file << " finger " << f.name;
     }
     expect_no_violations(*r.sim);
+  }
+}
+
+// The force at which a tear starts is the sheet's, not the time step's: the frame's physics stops at the
+// state where the start is due, inside a substep if need be (docs/tearing.md "Quasi-static tearing"), so
+// the fingers' peak up to the first start moves by at most 10% from 10 to 40 substeps a frame. A finger
+// start at the strain limit (start-finger) and a notch start (fig21-notch).
+TEST(Scenarios, StartForceDoesNotDependOnTheSubsteps) {
+  for (const char* file : {"start-finger.json", "fig21-notch.json"}) {
+    double peak[2] = {0, 0};
+    for (int k = 0; k < 2; ++k) {
+      Scenario s = load_scenario(scenario_path(file));
+      s.sim.substeps = k == 0 ? 10 : 40;
+      EngineOptions o;
+      o.threads = 1;
+      Simulation sim(s, o);
+      for (int32_t f = 0; f < s.sim.frames && sim.sheet().tears.empty(); ++f) sim.step();
+      ASSERT_FALSE(sim.sheet().tears.empty()) << file << " at " << s.sim.substeps << " substeps";
+      for (const Finger& f : sim.sheet().fingers) {
+        EXPECT_EQ(f.slips, 0) << file << " finger " << f.name;
+        peak[k] = std::max(peak[k], f.max_force);
+      }
+    }
+    EXPECT_NEAR(peak[1], peak[0], 0.1 * peak[0]) << file;
   }
 }
 

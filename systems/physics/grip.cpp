@@ -33,6 +33,11 @@ void read_reactions(const Vertices& verts, const Vec3& gravity, std::vector<Fing
   }
 }
 
+void read_transient_reactions(const Vertices& verts, const Vec3& gravity, std::vector<Finger>& fingers) {
+  for (Finger& f : fingers)
+    if (f.vertex >= 0 && !f.slipping) f.reaction = held_reaction(verts, gravity, f.vertex);
+}
+
 bool grip_exceeded(const std::vector<Finger>& fingers) {
   for (const Finger& f : fingers)
     if (f.vertex >= 0 && !f.slipping && f.reaction.norm() > f.grip) return true;

@@ -28,6 +28,11 @@ bool check_grip(const Vertices& verts, const Vec3& gravity, std::vector<Finger>&
 // The reactions of the holding fingers (as check_grip reads them) without letting any slip.
 void read_reactions(const Vertices& verts, const Vec3& gravity, std::vector<Finger>& fingers);
 
+// The same reactions, not recorded in max_force: for a state the sheet does not move through (the one
+// relaxation substep after a cut, whose lips are still springing open), which the tearing step reads but
+// the fingers never hold.
+void read_transient_reactions(const Vertices& verts, const Vec3& gravity, std::vector<Finger>& fingers);
+
 // True when a holding finger's reaction exceeds its grip.
 bool grip_exceeded(const std::vector<Finger>& fingers);
 
