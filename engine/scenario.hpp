@@ -20,7 +20,9 @@ struct InputError : std::runtime_error {
 
 struct DetailSettings {
   std::array<int32_t, 2> texture{0, 0};  // [width, height] px; 0,0: ~0.1 mm per pixel over the bounding box
-  double sigma = 1e-4;                    // m
+  // σ of eq. 7's G_i, m. 1 mm, chosen by looking (docs/fig19.md): at 0.1 mm the detailed path stays
+  // within a pixel of the coarse segment and the torn edge reads as cut with scissors.
+  double sigma = 1e-3;
   double omega = 0.5;
 };
 

@@ -27,7 +27,9 @@ struct PatternStyle {
   std::array<uint8_t, 3> left_tint{60, 110, 230};  // side labels, blended lightly
   std::array<uint8_t, 3> right_tint{235, 140, 30};
   double tint = 0.14;    // blend weight of the side tints
-  double fiber = 0.22;   // paper brightness varies by ±fiber/2 with T_fiber
+  // Paper brightness varies by ±fiber/2 with T_fiber. Office paper's formation shows at a few percent;
+  // ±11% (0.22) read as parchment's blotches (docs/fig19.md).
+  double fiber = 0.06;
 };
 
 // Write a width × height RGBA8 image (row 0 is the top row) to `path`. Throws std::runtime_error.

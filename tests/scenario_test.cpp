@@ -80,7 +80,7 @@ TEST(Scenario, MinimalFileTakesDefaults) {
   EXPECT_EQ(s.material.young, m.young);
   EXPECT_EQ(s.material.fracture_c, m.fracture_c);
   EXPECT_EQ(s.detail.texture[0], 0);
-  EXPECT_EQ(s.detail.sigma, 1e-4);
+  EXPECT_EQ(s.detail.sigma, 1e-3);
   EXPECT_EQ(s.detail.omega, 0.5);
   EXPECT_EQ(s.sim.fps, 30);
   EXPECT_EQ(s.sim.substeps, 10);
