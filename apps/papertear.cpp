@@ -1,4 +1,4 @@
-// papertear: the command line (DESIGN §7).
+// papertear: the command line (docs/result-format.md, docs/scenario-format.md).
 //   papertear run SCENARIO [--set KEY=VALUE]... [--out DIR] [--frames N] [--threads N] [--obj] [--svg] [--png]
 //   papertear check SCENARIO [--set KEY=VALUE]...
 //   papertear batch SCENARIO --sheets N [--set KEY=VALUE]... [--threads N] [--frames N] [--out DIR]

@@ -1,5 +1,5 @@
 // Scenes shared by the benchmarks: an A4 sheet of about N triangles held by two hands that pull apart
-// and twist (DESIGN §6 demo), built in code so each benchmark picks its size.
+// and twist (scenarios/demo.json, docs/scenario-format.md), built in code so each benchmark picks its size.
 #pragma once
 
 #include "engine/scenario.hpp"

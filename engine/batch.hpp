@@ -1,6 +1,7 @@
-// Batches of sheets (DESIGN §3, §7 `papertear batch`): N variations of one scenario advanced in parallel,
-// each sheet with its own frame graph; oneTBB's work stealing balances sheets of different cost.
-// Results and hashes do not depend on the thread count: each sheet is deterministic on its own.
+// Batches of sheets (docs/architecture.md "The frame"; docs/result-format.md, `papertear batch`): N
+// variations of one scenario advanced in parallel, each sheet with its own frame graph; oneTBB's work
+// stealing balances sheets of different cost. Results and hashes do not depend on the thread count: each
+// sheet is deterministic on its own.
 #pragma once
 
 #include "engine/scenario.hpp"

@@ -1,5 +1,5 @@
-// result.json, pattern SVG and per-frame OBJ (DESIGN §7). Output is deterministic: fixed key order
-// (ordered_json), fixed number formats, no timestamps — except the timings themselves.
+// result.json, pattern SVG and per-frame OBJ (docs/result-format.md). Output is deterministic: fixed key
+// order (ordered_json), fixed number formats, no timestamps — except the timings themselves.
 #include "engine/result_writer.hpp"
 
 #include "engine/simulation.hpp"
@@ -67,7 +67,8 @@ struct Box {
   bool valid() const { return lo.x() <= hi.x() && lo.y() <= hi.y(); }
 };
 
-// The texture spans the outline's bounding box (DESIGN §5.6); pattern points stay inside it.
+// The texture spans the outline's bounding box (docs/architecture.md "Details"); pattern points stay
+// inside it.
 Box pattern_box(const Simulation& sim) {
   Box b;
   for (const Vec2& p : sim.scenario().outline) b.add(p);
@@ -272,7 +273,7 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::
                                {"frame", num.stat(tr.frame)}};
   result["hash"] = sim.state_hash();
 
-  // Extra keys (DESIGN §7 allows more).
+  // Extra keys (docs/result-format.md: more keys may be added).
   ojson systems = ojson::object();
   for (size_t i = 0; i < kSystemNames.size(); ++i) systems[kSystemNames[i]] = num.stat(tr.systems[i]);
   result["systems_ms"] = std::move(systems);

@@ -1,4 +1,4 @@
-// Outputs of a run (DESIGN §7): result.json, the 2D pattern as SVG, the mesh as OBJ.
+// Outputs of a run (docs/result-format.md): result.json, the 2D pattern as SVG, the mesh as OBJ.
 // Every file is written atomically (temporary file, then rename), so a failed run never leaves a
 // partial file that looks like a result.
 #pragma once
@@ -14,10 +14,10 @@ namespace pt {
 
 class Simulation;
 
-// The result document: the keys of DESIGN §7 in that order, then "systems_ms", "regions_summary" and
-// "pieces". "status" is "error", with the reason in "error" (after "status"; also in `*error` when given),
-// when a number was not finite (it is written as null) or when the solver refused more than half of the
-// run's substeps (the sheet stood still: not a result). Returns true when the status is "ok". Call
+// The result document: the keys of docs/result-format.md in that order, then "systems_ms", "regions_summary"
+// and "pieces". "status" is "error", with the reason in "error" (after "status"; also in `*error` when
+// given), when a number was not finite (it is written as null) or when the solver refused more than half of
+// the run's substeps (the sheet stood still: not a result). Returns true when the status is "ok". Call
 // Simulation::flush() first so tears' detail paths are complete.
 bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::string* error = nullptr);
 
@@ -35,17 +35,18 @@ std::string solver_failure(const Simulation& sim);
 void write_svg(const Simulation& sim, const std::string& path);
 
 // The mesh now: v = 3D positions, vt = pattern positions normalised to the texture's extent (the
-// outline's bounding box, DESIGN §5.6), f = triangles. Throws std::runtime_error on I/O failure.
+// outline's bounding box, docs/architecture.md "Details"), f = triangles. Throws std::runtime_error on
+// I/O failure.
 void write_obj(const Simulation& sim, const std::string& path);
 
-// Textured OBJ sequence (`run --obj`, DESIGN §7, paper §6.2): per frame <stem>.obj + <stem>.mtl in `dir`.
-// Two materials: "paper" (paper.png, the whole texture, written once: triangles away from the tears) and
-// "carved" (carved_<frame>.png, the atlas of texture_export.hpp: one patch per tear side present, alpha 0
-// beyond the detailed path for that side). Triangles along a tear get support strips (§6.2, Fig. 11): a
-// quad of support_strip_width beyond each lip edge, in the triangle's plane, textured from the same patch,
-// so the detail beyond the coarse edge shows. The atlas PNG is rewritten only when the carving or the
-// atlas layout (the lip triangles) changed; frames in between reference the last one. Call
-// Simulation::flush() before write() so the last frame's segments are carved. Throws std::runtime_error.
+// Textured OBJ sequence (`run --obj`, docs/result-format.md, paper §6.2): per frame <stem>.obj + <stem>.mtl
+// in `dir`. Two materials: "paper" (paper.png, the whole texture, written once: triangles away from the
+// tears) and "carved" (carved_<frame>.png, the atlas of texture_export.hpp: one patch per tear side present,
+// alpha 0 beyond the detailed path for that side). Triangles along a tear get support strips (§6.2, Fig. 11):
+// a quad of support_strip_width beyond each lip edge, in the triangle's plane, textured from the same patch,
+// so the detail beyond the coarse edge shows. The atlas PNG is rewritten only when the carving or the atlas
+// layout (the lip triangles) changed; frames in between reference the last one. Call Simulation::flush()
+// before write() so the last frame's segments are carved. Throws std::runtime_error.
 class TexturedObjWriter {
  public:
   explicit TexturedObjWriter(std::string dir, PatternStyle style = {});

@@ -1,6 +1,6 @@
-// Scenario files (DESIGN §6): strict loading. Parsing checks shape and types (with the JSON path of
-// every value); validate_scenario checks values and geometry on the struct, so scenarios built in code
-// get the same checks and the same messages.
+// Scenario files (docs/scenario-format.md): strict loading. Parsing checks shape and types (with the JSON
+// path of every value); validate_scenario checks values and geometry on the struct, so scenarios built in
+// code get the same checks and the same messages.
 #include "engine/scenario.hpp"
 
 #include "systems/meshing.hpp"

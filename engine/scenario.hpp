@@ -1,6 +1,6 @@
-// Scenario files (DESIGN §6, version 1): strict loading. Unknown keys, wrong types, wrong array lengths,
-// non-finite or non-positive physical constants, degenerate outlines and fingers outside the sheet are
-// InputError with the file and the JSON path of the problem.
+// Scenario files (docs/scenario-format.md, version 1): strict loading. Unknown keys, wrong types, wrong array
+// lengths, non-finite or non-positive physical constants, degenerate outlines and fingers outside the sheet
+// are InputError with the file and the JSON path of the problem.
 #pragma once
 
 #include "components/sheet.hpp"

@@ -1,5 +1,6 @@
 // Builds a Sheet from a scenario: meshing with a vertex at every finger point, fingers, hands,
-// material; and the fiber field over the outline's bounding box (DESIGN §5.6 texture frame).
+// material; and the fiber field over the outline's bounding box (the texture frame,
+// docs/architecture.md "Details").
 #pragma once
 
 #include "components/sheet.hpp"

@@ -1,6 +1,6 @@
-// The frame graph of one sheet (DESIGN §3). Built once per sheet; each node is named after the system it
-// runs. Parallelism comes from two places: the kernels inside a node run their ranges with oneTBB
-// (forces, projective dynamics' local step) inside the sheet's task arena, and the carving of the
+// The frame graph of one sheet (docs/architecture.md "The frame"). Built once per sheet; each node is named
+// after the system it runs. Parallelism comes from two places: the kernels inside a node run their ranges
+// with oneTBB (forces, projective dynamics' local step) inside the sheet's task arena, and the carving of the
 // previous frame's segments runs beside this frame's physics, since it only reads tips that are fixed.
 #include "engine/simulation.hpp"
 
@@ -206,7 +206,7 @@ struct Simulation::Impl {
   }
 
   // Kernels split [0, count) into fixed ranges of `grain`; each range writes its own outputs, so the
-  // result is the same whichever thread runs which range (DESIGN §3 determinism).
+  // result is the same whichever thread runs which range (docs/architecture.md "The frame", determinism).
   void run_ranges(int32_t count, int32_t grain, const RangeTask& task) const {
     if (count <= 0) return;
     if (options.threads <= 1 || count <= grain) {

@@ -1,5 +1,5 @@
 // One simulated sheet: built from a scenario, advanced frame by frame by a tbb::flow::graph built once
-// (DESIGN §3), inside a task arena of `threads` workers.
+// (docs/architecture.md "The frame"), inside a task arena of `threads` workers.
 #pragma once
 
 #include "components/sheet.hpp"
@@ -96,7 +96,8 @@ class Simulation {
   const TimingReport& timings() const;
   const std::vector<FrameStats>& frame_stats() const;
   const std::vector<TearEvent>& events() const;  // all events so far
-  // With EngineOptions::check_invariants: one line per remesh that broke a DESIGN §5.5 invariant.
+  // With EngineOptions::check_invariants: one line per remesh that broke an invariant of
+  // docs/architecture.md "Data and its invariants".
   const std::vector<std::string>& invariant_violations() const;
   // Largest principal in-plane strain of the sheet at the end of any frame so far.
   double max_strain() const;
@@ -125,9 +126,9 @@ class Simulation {
   void move_finger(int32_t finger, const Vec3& target);
   void release_finger(int32_t finger);  // InputError for an index the sheet does not have
   // Parameters a running simulation takes from its next frame on (the viewer's live panel): the
-  // propagation speed k and step cap of p_next = p + k·Er·t (paper §5.2, DESIGN §5.4), and the detail
-  // noise σ, ω of the segments carved from now on (paper §6). Invalid values (negative k, a cap that is
-  // not positive, σ < 0, ω outside [0, 1], NaN) are refused with std::invalid_argument.
+  // propagation speed k and step cap of p_next = p + k·Er·t (paper §5.2, docs/tearing.md "How far"), and the
+  // detail noise σ, ω of the segments carved from now on (paper §6). Invalid values (negative k, a cap that
+  // is not positive, σ < 0, ω outside [0, 1], NaN) are refused with std::invalid_argument.
   void set_propagation_speed(double speed, double max_step);
   void set_detail_noise(double sigma, double omega);
 

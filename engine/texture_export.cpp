@@ -1,4 +1,4 @@
-// PNG output of the paper texture and its carving (paper §6.2, §7.4; DESIGN §5.6).
+// PNG output of the paper texture and its carving (paper §6.2, §7.4; docs/architecture.md "Details").
 #include "engine/texture_export.hpp"
 
 #include <oneapi/tbb/blocked_range.h>

@@ -1,6 +1,6 @@
-// PNG output of the paper texture and its carving (paper §6.2, §7.4; DESIGN §5.6): the 2D pattern with
-// the detailed tears at texture resolution (`--png`, Fig. 19), the per-side RGBA textures whose pixels
-// beyond the detailed path are transparent (`--obj`), and a plain RGBA writer others reuse.
+// PNG output of the paper texture and its carving (paper §6.2, §7.4; docs/architecture.md "Details"): the 2D
+// pattern with the detailed tears at texture resolution (`--png`, Fig. 19), the per-side RGBA textures whose
+// pixels beyond the detailed path are transparent (`--obj`), and a plain RGBA writer others reuse.
 #pragma once
 
 #include "components/sheet.hpp"

@@ -274,7 +274,7 @@ PYBIND11_MODULE(papertear, m) {
             pt::build_result_json(s, doc);
             return py::module_::import("json").attr("loads")(doc.dump());
           },
-          "The result.json document (DESIGN §7) as a dict; call flush() first for complete tear details.")
+          "The result.json document (docs/result-format.md) as a dict; call flush() first for complete tear details.")
       .def("write_result", [](const PySim& p, const std::string& path) { return pt::write_result_json(*p.sim, path); }, "path"_a, "Write result.json; returns True when status is ok.")
       // Fingers.
       .def(

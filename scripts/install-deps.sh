@@ -8,7 +8,7 @@ PKGS=(
   nlohmann-json3-dev libcli11-dev libstb-dev libpng-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   libglfw3-dev libgl-dev libimgui-dev xvfb xauth
-  pybind11-dev python3-dev python3-numpy
+  pybind11-dev python3-dev python3-numpy python3-jsonschema
   clang libclang-rt-14-dev
 )
 missing=()

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Soak (issue 9): builds hostile_test (Release) in build-soak and runs its disabled Soak test: 10 000 frames
 # of tests/soak/soak.json (repeated tearing while a hand waves the sheet), checking for non-finite values
-# every frame and the DESIGN §5.5 invariants after every remesh, printing per-1000-frame frame time,
-# triangle count and memory (current RSS, getrusage peak RSS). Keeps the report in
+# every frame and the mesh invariants (docs/architecture.md) after every remesh, printing per-1000-frame frame
+# time, triangle count and memory (current RSS, getrusage peak RSS). Keeps the report in
 # bench/results/soak-<date>.txt.  (SOAK_FRAMES, SOAK_SCENARIO, SOAK_THREADS, SOAK_BUILD, JOBS overridable)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)

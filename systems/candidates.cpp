@@ -1,8 +1,10 @@
-// Potential tearing points (paper §4.1) and their fracture energy (paper eq. 3, DESIGN §5.2).
+// Potential tearing points (paper §4.1) and their fracture energy (paper eq. 3); docs/tearing.md
+// "Potential tearing points and fracture energy".
 //
 // The list is short (~10 points) and rebuilt after every propagation, so it is a plain linear pass over
 // the boundary vertices; what matters is that the order is deterministic, because the engine treats the
-// candidates sequentially and each propagation changes the forces seen by the next (DESIGN §3).
+// candidates sequentially and each propagation changes the forces seen by the next
+// (docs/architecture.md "The frame").
 #include "systems/candidates.hpp"
 
 #include <algorithm>

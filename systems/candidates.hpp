@@ -1,6 +1,7 @@
-// Potential tearing points (paper §4.1, DESIGN §5.2): boundary vertices that are finger vertices,
-// junction points, or have an inward angle in the pattern (every tear tip is one). Each gets its
-// fracture energy Ef = c · T_fiber(u, v) · d_p (eq. 3), d_p = D at a tear tip, 1 elsewhere.
+// Potential tearing points (paper §4.1, docs/tearing.md "Potential tearing points and fracture energy"):
+// boundary vertices that are finger vertices, junction points, or have an inward angle in the pattern (every
+// tear tip is one). Each gets its fracture energy Ef = c · T_fiber(u, v) · d_p (eq. 3), d_p = D at a tear
+// tip, 1 elsewhere.
 #pragma once
 
 #include "components/sheet.hpp"
@@ -28,9 +29,9 @@ void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const 
                      std::vector<Candidate>& out);
 
 // T_fiber at each vertex's pattern position, remembered between calls: the candidates are rebuilt after
-// every propagation (DESIGN §3) and a bilinear sample of the procedural field costs 4 texels × 5 octaves of
-// Perlin noise. An entry is used only while its vertex still sits at the same pattern point, so vertex
-// renumbering by remeshing needs no invalidation. 24 bytes per vertex.
+// every propagation (docs/architecture.md "The frame") and a bilinear sample of the procedural field costs 4
+// texels × 5 octaves of Perlin noise. An entry is used only while its vertex still sits at the same pattern
+// point, so vertex renumbering by remeshing needs no invalidation. 24 bytes per vertex.
 struct FiberSampleCache {
   std::vector<Vec2> uv;
   std::vector<double> value;  // fiber_sample at uv; NaN uv marks an empty slot

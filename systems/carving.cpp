@@ -1,4 +1,5 @@
-// The carving system (paper §6, DESIGN §5.6). See carving.hpp for the side-label map design.
+// The carving system (paper §6; docs/architecture.md "Details"). See carving.hpp for the side-label
+// map design.
 #include "systems/carving.hpp"
 
 #include "systems/pattern_geometry.hpp"

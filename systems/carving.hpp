@@ -1,5 +1,5 @@
-// The carving system (paper §6, DESIGN §5.6): the fine tear path between successive coarse tips, and the
-// per-pixel side labels that let a coarse mesh show a detailed torn edge.
+// The carving system (paper §6, docs/architecture.md "Details"): the fine tear path between successive coarse
+// tips, and the per-pixel side labels that let a coarse mesh show a detailed torn edge.
 //
 // Detail path (§6.1, eq. 7): in texture pixels, T = (1 − ω) T_fiber + ω G_i, G_i a Gaussian (σ, meters)
 // of the distance to the coarse segment; from tip i's pixel, step greedily to the 8-neighbour closer to
@@ -31,7 +31,7 @@ namespace pt {
 // `origin`, with square pixels of `pixel_size` (pixel (i, j) covers origin + [i, i+1) × [j, j+1) · size).
 struct DetailParams {
   Vec2 origin = Vec2::Zero();
-  double pixel_size = 1e-4;   // m (DESIGN §5.6 default: ~0.1 mm)
+  double pixel_size = 1e-4;   // m (default of docs/architecture.md "Details": ~0.1 mm)
   int32_t width = 0, height = 0;
   double sigma = 1e-4;        // σ of G_i, m
   double omega = 0.5;         // ω of eq. 7

@@ -1,5 +1,5 @@
 // Clustering the membrane forces at a potential tearing point into two virtual fingers (paper §5.1,
-// eq. 4, DESIGN §5.3) and mapping each cluster to the 2D pattern (paper eq. 5, DESIGN §5.4).
+// eq. 4) and mapping each cluster to the 2D pattern (paper eq. 5); docs/tearing.md "The fan rule".
 //
 // Orientation conventions (they make eq. 4 well defined):
 //  - n is the area-weighted normal of p's fan, oriented like the pattern (triangles are counter-clockwise
@@ -50,9 +50,9 @@ Eigen::Matrix<double, 3, 2> deformation_gradient(const Vertices& verts, const Tr
 // n perpendicular to P(u − w) separates u and w best (it maximises (u − w)·m over unit m ⊥ n), and for
 // tangent vectors it is the line of u + w (they are perpendicular: (u + w)·(u − w) = 0). Taking the line
 // from u − w rather than from u + w keeps it defined when the clusters are exactly opposite, which is the
-// usual case at a tip close to equilibrium (DESIGN §5.3). Orienting b = n × m̂ keeps the labels: u · m > 0
-// for m = P(u − w) whenever u and w lie in the tangent plane, so the left cluster stays left.
-// Returns false when u and w coincide in the tangent plane (no separating plane).
+// usual case at a tip close to equilibrium (docs/tearing.md "The fan rule"). Orienting b = n × m̂ keeps the
+// labels: u · m > 0 for m = P(u − w) whenever u and w lie in the tangent plane, so the left cluster stays
+// left. Returns false when u and w coincide in the tangent plane (no separating plane).
 bool bisector_from_split(const Vec3& u, const Vec3& w, const Vec3& n, Vec3& b) {
   const Vec3 m = project_on_plane(u - w, n);
   const double l = m.norm();

@@ -1,5 +1,5 @@
-// Clustering the forces at a potential tearing point (paper §5.1 eq. 4, DESIGN §5.3) and mapping the
-// two clusters to the pattern (eq. 5, DESIGN §5.4).
+// Clustering the forces at a potential tearing point (paper §5.1 eq. 4) and mapping the two clusters to
+// the pattern (eq. 5); docs/tearing.md "The fan rule".
 #pragma once
 
 #include "components/sheet.hpp"

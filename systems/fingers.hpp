@@ -1,6 +1,6 @@
-// Finger targets at time t (DESIGN §3 `fingers`, §6): a finger follows its own keys (linear in time,
-// held before the first and after the last key), then its hand moves it rigidly: rotation about the
-// hand's initial centroid, then translation, both interpolated between the hand's keys.
+// Finger targets at time t (docs/scenario-format.md, "fingers" / "hands"): a finger follows its own keys
+// (linear in time, held before the first and after the last key), then its hand moves it rigidly: rotation
+// about the hand's initial centroid, then translation, both interpolated between the hand's keys.
 #pragma once
 
 #include "components/sheet.hpp"

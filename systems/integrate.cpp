@@ -284,7 +284,7 @@ bool integrate_substep(const IntegrateParams& params, const std::vector<int32_t>
     for (int32_t f = 0; f < nf; ++f) s.xs[s.free_vertices[f]] = s.sol.row(f).transpose();
   }
 
-  if (!ok) {  // keep the previous state (DESIGN §7: never a NaN in an output)
+  if (!ok) {  // keep the previous state (docs/result-format.md: never a NaN in an output)
     s.stats.ok = false;
     s.stats.failures += 1;
     return false;

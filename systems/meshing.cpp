@@ -1,6 +1,6 @@
-// Meshing of the sheet's outline (DESIGN §2, §4): validation of the outline polygon, presets, and the
-// CGAL constrained Delaunay refinement. CGAL stays inside this file so no other translation unit pays
-// for its headers.
+// Meshing of the sheet's outline (docs/architecture.md "Data and its invariants"; docs/physics.md "Fingers"):
+// validation of the outline polygon, presets, and the CGAL constrained Delaunay refinement. CGAL stays inside
+// this file so no other translation unit pays for its headers.
 #include "systems/meshing.hpp"
 #include "systems/pattern_geometry.hpp"
 

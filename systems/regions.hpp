@@ -1,7 +1,7 @@
-// The geometric layer (paper §4.1 and Fig. 3, DESIGN §5.1), computed from the deformed mesh each frame:
-// triangles are flat or curved with the sign of their bending; regions are connected components of
-// equal kind; junction points are boundary vertices whose triangles belong to two or more regions;
-// interior singular points are interior vertices where bending concentrates (cone apices).
+// The geometric layer (paper §4.1 and Fig. 3, docs/tearing.md "Regions and junctions"), computed from the
+// deformed mesh each frame: triangles are flat or curved with the sign of their bending; regions are
+// connected components of equal kind; junction points are boundary vertices whose triangles belong to two or
+// more regions; interior singular points are interior vertices where bending concentrates (cone apices).
 #pragma once
 
 #include "components/sheet.hpp"

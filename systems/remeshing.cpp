@@ -1,4 +1,4 @@
-// Cutting a tear segment into the coarse mesh (paper §5.3, appendix A; DESIGN §5.5).
+// Cutting a tear segment into the coarse mesh (paper §5.3, appendix A; docs/tearing.md "The cut").
 //
 // Everything happens in the 2D pattern (verts.rest). The cut runs in four phases:
 //   1. walk: from boundary vertex p, follow the segment p → next triangle by triangle, splitting each

@@ -1,4 +1,5 @@
-// Cutting a tear segment into the coarse mesh in the pattern (paper §5.3 and appendix A, DESIGN §5.5).
+// Cutting a tear segment into the coarse mesh in the pattern (paper §5.3 and appendix A;
+// docs/tearing.md "The cut").
 #pragma once
 
 #include "components/sheet.hpp"

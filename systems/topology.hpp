@@ -59,8 +59,8 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
 // contents unchanged. The local refresh calls it once they reach half of the pool.
 void compact_fans(Topology& topo);
 
-// DESIGN §5.5 invariants. Returns an empty string when they hold, else a description of the first
-// violation. `expected_area` < 0 skips the area check.
+// The invariants of docs/architecture.md "Data and its invariants". Returns an empty string when they hold,
+// else a description of the first violation. `expected_area` < 0 skips the area check.
 std::string check_mesh_invariants(const Sheet& sheet, double expected_area = -1);
 
 double total_rest_area(const Triangles& tris);

@@ -1,5 +1,6 @@
-// Potential tearing points (paper §4.1) and fracture energy (eq. 3, DESIGN §5.2) on a hand-built notched
-// sheet: which boundary vertices are listed, in which order, of which kind, with Ef = c · T_fiber · d.
+// Potential tearing points (paper §4.1) and fracture energy (eq. 3; docs/tearing.md
+// "Potential tearing points and fracture energy") on a hand-built notched sheet: which boundary vertices
+// are listed, in which order, of which kind, with Ef = c · T_fiber · d.
 #include "systems/candidates.hpp"
 #include "systems/topology.hpp"
 

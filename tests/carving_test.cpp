@@ -1,4 +1,5 @@
-// The carving system (paper §6, DESIGN §5.6): detail path of eq. 7, side labels, visibility, memory.
+// The carving system (paper §6; docs/architecture.md "Details"): detail path of eq. 7, side labels,
+// visibility, memory.
 #include "systems/carving.hpp"
 
 #include <gtest/gtest.h>

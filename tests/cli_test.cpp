@@ -1,5 +1,5 @@
-// The papertear command line as a user meets it (DESIGN §7): exit status 2 with exactly one line on
-// stderr and nothing written for every bad input; exit 0, a complete result.json and an SVG for a good
+// The papertear command line as a user meets it (docs/result-format.md): exit status 2 with exactly one line
+// on stderr and nothing written for every bad input; exit 0, a complete result.json and an SVG for a good
 // one; usage errors are exit 2 too.
 #include "engine/scenario.hpp"
 #include "engine/texture_export.hpp"
@@ -466,7 +466,8 @@ TEST_F(Cli, TexturedObjShowsTheCarvedEdge) {
   std::vector<uint8_t> paper, atlas;
   pt::read_rgba_png((frames / "paper.png").string(), pw, ph, paper);
   pt::read_rgba_png((frames / carved).string(), aw, ah, atlas);
-  const double px = 1e-4;  // texture pixel, m (DESIGN §5.6 default; the outline's box starts at 0)
+  // Texture pixel, m: the default of docs/architecture.md "Details"; the outline's box starts at 0.
+  const double px = 1e-4;
   EXPECT_NEAR(pw * px, 0.148, 2 * px);
   EXPECT_NEAR(ph * px, 0.21, 2 * px);
 

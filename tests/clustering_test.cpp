@@ -1,5 +1,5 @@
-// Clustering of the forces at a tearing point (paper eq. 4, DESIGN §5.3) and their pattern pre-images
-// (eq. 5, DESIGN §5.4), on hand-built fans whose answers are known in closed form.
+// Clustering of the forces at a tearing point (paper eq. 4) and their pattern pre-images (eq. 5), on
+// hand-built fans whose answers are known in closed form (docs/tearing.md "The fan rule").
 #include "systems/clustering.hpp"
 #include "systems/topology.hpp"
 
@@ -86,7 +86,7 @@ TEST(Clustering, IterationReclassifiesWhatTheFirstPlaneGotWrong) {
 }
 
 // A tip close to equilibrium: the two clusters are exactly opposite in 3D, F̂_l + F̂_r = 0. The separating
-// plane must still be found: b is perpendicular to the line of the forces (DESIGN §5.3).
+// plane must still be found: b is perpendicular to the line of the forces (docs/tearing.md "The fan rule").
 TEST(Clustering, ExactlyOppositeClustersStillSplit) {
   Sheet s = fan_sheet({0, 30, 60, 90, 120, 150, 180});
   const Vec3 d = Vec3(1, 0.3, 0).normalized();
@@ -140,7 +140,7 @@ TEST(Clustering, RigidMotionLeavesPatternPreImagesUnchanged) {
 // Trouser-like pull at a notch tip: the two lips are folded out of the sheet, one up and one down (the
 // legs of a trouser test), so the same fan holds three different deformation gradients. The lips pull p
 // with 3D forces that are exactly opposite (nearly ±z), yet their pre-images both point back along the
-// tear toward the lips: φ is small (DESIGN §5.4).
+// tear toward the lips: φ is small (docs/tearing.md "The fan rule").
 TEST(Clustering, TrouserLipsMapBackTowardTheLips) {
   Sheet s = fan_sheet({100, 140, 180, 225, 270, 315, 360, 400, 440});
   ASSERT_EQ(check_mesh_invariants(s), "");

@@ -2,7 +2,8 @@
 // and reversed keys, every finger released in the middle of a tear, a sheet cut into many small pieces,
 // tears meeting each other or the boundary at grazing angles. The engine keeps going or stops with a
 // clear error (one line); it never crashes, hangs (each case well under 60 s) or produces a NaN; the state
-// hash is the same at 1 and 2 threads. DESIGN §5.5 invariants are checked after every remesh.
+// hash is the same at 1 and 2 threads. The invariants of docs/architecture.md "Data and its invariants" are
+// checked after every remesh.
 //
 // Also the soak (DISABLED_: run by `make soak` / scripts/soak.sh with --gtest_also_run_disabled_tests):
 // 10 000 frames of tests/soak/soak.json, NaN check every frame, per-1000-frame frame time, triangle count

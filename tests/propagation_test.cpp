@@ -1,5 +1,6 @@
-// Energy release rate, Griffith's test and the tear direction (paper eqs. 1, 2, 6; DESIGN §5.4), checked
-// against O'Keefe's two-finger analysis and a trouser-like pull, on hand-built fans.
+// Energy release rate, Griffith's test and the tear direction (paper eqs. 1, 2, 6; docs/tearing.md
+// "The fan rule", "How far"), checked against O'Keefe's two-finger analysis and a trouser-like pull, on
+// hand-built fans.
 #include "systems/propagation.hpp"
 #include "systems/topology.hpp"
 

@@ -1,5 +1,6 @@
-// Remeshing (paper §5.3, Fig. 8, appendix A; DESIGN §5.5): cutting tear segments into hand-built regular
-// and jittered grids of a rectangle with a notch, checking the mesh invariants after every cut.
+// Remeshing (paper §5.3, Fig. 8, appendix A; docs/tearing.md "The cut"): cutting tear segments into
+// hand-built regular and jittered grids of a rectangle with a notch, checking the mesh invariants after
+// every cut.
 #include "systems/remeshing.hpp"
 #include "systems/topology.hpp"
 
@@ -59,7 +60,8 @@ Sheet make_grid(int nx, int ny, double jitter, uint64_t seed) {
 
 int32_t notch_vertex(int nx, int ny) { return ny * (nx + 1) + nx / 2; }
 
-// Checks the DESIGN §5.5 invariants plus the tear-specific ones after a cut.
+// Checks the invariants of docs/architecture.md "Data and its invariants" plus the tear-specific ones
+// after a cut.
 void expect_valid_after_cut(const Sheet& s, double area, const CutResult& res, int32_t tear) {
   ASSERT_EQ(check_mesh_invariants(s, area), "");
   for (int32_t v = 0; v < s.verts.size(); ++v) {

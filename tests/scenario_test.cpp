@@ -1,5 +1,5 @@
-// Scenario loading (DESIGN §6): defaults, every key, and one test per kind of bad input. Each bad
-// input must be an InputError whose one-line message names the file and the JSON path or the problem.
+// Scenario loading (docs/scenario-format.md): defaults, every key, and one test per kind of bad input. Each
+// bad input must be an InputError whose one-line message names the file and the JSON path or the problem.
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 

@@ -1,5 +1,5 @@
 // papertear-viewer [SCENARIO] [--set KEY=VALUE]... [--frames N --screenshot FILE.png] [--threads N] [--realtime]
-//   (DESIGN §7, issue 7)
+//   (docs/viewer.md, issue 7)
 //
 // Mouse: left click on the sheet puts a finger there (a vertex is inserted at the picked pattern point)
 // and dragging moves it in the view plane (Shift: in depth); left drag on a finger grabs it (and every

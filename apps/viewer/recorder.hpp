@@ -1,5 +1,5 @@
-// Recording an interactive session (issue 7) as a scenario (DESIGN §6) that `papertear run` replays:
-// the scenario's sheet, material (the sheet's current values), detail and sim settings with
+// Recording an interactive session (issue 7) as a scenario (docs/scenario-format.md) that `papertear run`
+// replays: the scenario's sheet, material (the sheet's current values), detail and sim settings with
 // `sim.frames` = frames played, its hands, and every finger with its pattern point, its keys and — for
 // fingers put on or let go during the session — "attach" / "release" times in seconds.
 #pragma once

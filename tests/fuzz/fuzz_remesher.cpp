@@ -1,5 +1,5 @@
-// libFuzzer target (issue 9): random sequences of tear cuts on random outlines, checking the DESIGN §5.5
-// mesh invariants after every cut. The bytes decode into
+// libFuzzer target (issue 9): random sequences of tear cuts on random outlines, checking the mesh
+// invariants (docs/architecture.md "Data and its invariants") after every cut. The bytes decode into
 //   - an outline: a grid sheet (tests/test_meshes.hpp) of random size, resolution and jitter, or
 //     mesh_outline of a random simple (star-shaped, counter-clockwise) polygon;
 //   - a sequence of cuts: continue an active tip or start a new tear at a boundary vertex, an angle
