@@ -234,7 +234,8 @@ void write_batch_json(const BatchResult& r, const std::string& scenario_name, co
   j["scenario"] = scenario_name;
   j["sheets"] = r.sheets;
   j["threads"] = r.threads;
-  j["ranks"] = r.ranks;
+  // Only from several ranks: one process writes the batch.json it always wrote.
+  if (r.ranks > 1) j["ranks"] = r.ranks;
   j["frames"] = r.frames;
   nlohmann::ordered_json vary = nlohmann::json::array();
   for (const Variation& v : r.vary) vary.push_back({{"key", v.key}, {"from", v.from}, {"to", v.to}});

@@ -57,7 +57,8 @@ struct SystemThroughput {
 
 struct BatchResult {
   int32_t sheets = 0, threads = 0, frames = 0;
-  int32_t ranks = 1;                            // MPI ranks that ran the sheets (threads is per rank)
+  int32_t ranks = 1;                            // MPI ranks that ran the sheets (threads is per rank);
+                                                // batch.json has "ranks" only when it is more than 1
   std::vector<Variation> vary;                  // what was varied (SheetOutcome::varied in this order)
   bool fixed_seeds = false;
   double wall_s = 0, sheet_frames_per_s = 0;
