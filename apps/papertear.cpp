@@ -490,7 +490,7 @@ int main(int argc, char** argv) {
   check_cmd->add_option("--set", check_settings, set_help);
 
   BatchCli batch;
-  CLI::App* batch_cmd = app.add_subcommand("batch", "simulate N variations of a scenario in parallel");
+  CLI::App* batch_cmd = app.add_subcommand("batch", "simulate N variations of a scenario in parallel (under mpirun -np N: over N processes)");
   batch_cmd->add_option("SCENARIO", batch.scenario, "scenario file (JSON)")->required();
   batch_cmd->add_option("--sheets", batch.sheets, "number of sheets")->required()->check(CLI::Range(1, 1'000'000));
   batch_cmd->add_option("--set", batch.settings, set_help);

@@ -28,6 +28,8 @@ const std::string kDriver = std::string(PT_BINARY_DIR) + "/bin/batch_mpi_driver"
 
 #if defined(__SANITIZE_ADDRESS__)
 constexpr bool kAsan = true;
+#elif defined(__has_feature)
+constexpr bool kAsan = __has_feature(address_sanitizer);
 #else
 constexpr bool kAsan = false;
 #endif
