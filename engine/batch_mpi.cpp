@@ -376,6 +376,12 @@ BatchOnRanks run_rank_zero(const BatchRanks& ranks, const Scenario& base, const 
   local.join();
   job.coordinator_cpu_s = thread_cpu_s() - cpu0;
   if (local_error) std::rethrow_exception(local_error);
+  // Every rank was told to stop only once nothing was left, after sending what it ran: a sheet missing
+  // here is a bug, not an outcome to write.
+  if (local_done + remote_done != sheets)
+    throw std::runtime_error("batch on " + std::to_string(ranks.size) + " ranks: " +
+                             std::to_string(local_done + remote_done) + " of " + std::to_string(sheets) +
+                             " sheets came back");
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (progress) progress(sheets, sheets);
 
