@@ -3,9 +3,11 @@
 //   papertear check SCENARIO [--set KEY=VALUE]...
 //   papertear batch SCENARIO --sheets N [--set KEY=VALUE]... [--threads N] [--frames N] [--out DIR]
 //                   [--vary KEY=FROM:TO]... [--fixed-seeds]
+//   mpirun -np N papertear batch …   (the sheets spread over N processes, docs/batch.md)
 // Exit status: 0 success; 2 invalid input (one line on stderr naming the file and the JSON path or the
 // geometric problem; nothing written); 1 internal failure (one line on stderr; never a crash).
 #include "engine/batch.hpp"
+#include "engine/batch_mpi.hpp"
 #include "engine/version.hpp"
 #include "engine/result_writer.hpp"
 #include "engine/scenario.hpp"
@@ -14,6 +16,7 @@
 #include "systems/meshing.hpp"
 
 #include <CLI/CLI.hpp>
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -24,6 +27,7 @@
 #include <exception>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <iostream>
 #include <mutex>
 #include <string>
@@ -43,12 +47,20 @@ struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Under mpirun every process parses the same command line: the ranks other than 0 keep quiet, so a bad
+// option is one line, not one per rank (a rank that finds a bad sheet reports it with report_error).
+bool g_quiet = false;
+
 // Scripts read stderr line by line: every diagnostic is exactly one line.
-void print_error(const std::string& message) {
+void report_error(const std::string& message) {
   std::string line = "papertear: ";
   for (const char c : message) line += (c == '\n' || c == '\r') ? ' ' : c;
   std::fprintf(stderr, "%s\n", line.c_str());
   std::fflush(stderr);
+}
+
+void print_error(const std::string& message) {
+  if (!g_quiet) report_error(message);
 }
 
 struct RunOptions {
@@ -76,7 +88,9 @@ struct BatchCli {
 // A progress bar on a terminal only: logs and pipes stay quiet.
 class Progress {
  public:
-  explicit Progress(int64_t total) : total_(total), enabled_(::isatty(STDERR_FILENO) == 1) {}
+  explicit Progress(int64_t total) : Progress(total, ::isatty(STDERR_FILENO) == 1 ? stderr : nullptr) {}
+  // On `stream`, none if null.
+  Progress(int64_t total, std::FILE* stream) : total_(total), stream_(stream), enabled_(stream != nullptr) {}
   ~Progress() { finish(); }
 
   void update(int64_t done) {
@@ -88,21 +102,22 @@ class Progress {
     const int filled = total_ > 0 ? static_cast<int>(kWidth * done / total_) : kWidth;
     std::string bar(static_cast<size_t>(filled), '#');
     bar.append(static_cast<size_t>(kWidth - filled), '.');
-    std::fprintf(stderr, "\r[%s] %lld/%lld", bar.c_str(), static_cast<long long>(done),
+    std::fprintf(stream_, "\r[%s] %lld/%lld", bar.c_str(), static_cast<long long>(done),
                  static_cast<long long>(total_));
-    std::fflush(stderr);
+    std::fflush(stream_);
     drawn_ = true;
   }
 
   void finish() {
     if (!drawn_) return;
-    std::fprintf(stderr, "\r%*s\r", 60, "");
-    std::fflush(stderr);
+    std::fprintf(stream_, "\r%*s\r", 60, "");
+    std::fflush(stream_);
     drawn_ = false;
   }
 
  private:
   int64_t total_;
+  std::FILE* stream_;
   bool enabled_;
   bool drawn_ = false;
   std::chrono::steady_clock::time_point last_{};
@@ -284,24 +299,154 @@ int check_command(const std::string& path, const std::vector<std::string>& setti
   return kExitOk;
 }
 
-int batch_command(const BatchCli& cli) {
-  check_out_given(cli.out_given, cli.out);
-  const pt::Scenario base = pt::load_scenario(cli.scenario, cli.settings);
+pt::BatchOptions batch_options(const BatchCli& cli) {
   pt::BatchOptions options;
   options.sheets = cli.sheets;
   options.threads = cli.threads;
   options.frames = cli.frames;
   options.fixed_seeds = cli.fixed_seeds;
   for (const std::string& v : cli.vary) options.vary.push_back(pt::parse_variation(v));
-  // Every sheet's variation is checked before any runs, so a bad --vary range fails fast with exit 2.
-  for (int32_t i = 0; i < options.sheets; ++i) {
-    try {
-      pt::validate_scenario(pt::batch_sheet_scenario(base, options, i));
-    } catch (const pt::InputError& e) {
-      throw pt::InputError(std::string(e.what()) + " (batch sheet " + std::to_string(i) + ")");
+  return options;
+}
+
+fs::path batch_out_path(const BatchCli& cli, const pt::Scenario& base) {
+  return cli.out.empty() ? fs::path("out") / (base.name + "-batch") : fs::path(cli.out);
+}
+
+// Writes batch.json and batch.csv and prints the summary; `job` (the ranks' figures) is null in one process.
+int finish_batch(const pt::BatchResult& result, const pt::Scenario& base, OutputDir& out, const pt::BatchOnRanks* job) {
+  const fs::path json_path = out.path() / "batch.json", csv_path = out.path() / "batch.csv";
+  pt::write_batch_csv(result, csv_path.string());
+  pt::write_batch_json(result, base.name, json_path.string());
+  out.commit();
+
+  int failed = 0;
+  for (const pt::SheetOutcome& o : result.outcomes) failed += o.status != "ok";
+  const std::string workers = result.ranks > 1 ? plural(result.ranks, "rank") + " x " + plural(result.threads, "thread")
+                                               : plural(result.threads, "thread");
+  std::printf("%s: %s x %s on %s in %.3f s, %.1f sheet-frames/s, %d failed\n", base.name.c_str(),
+              plural(result.sheets, "sheet").c_str(), plural(result.frames, "frame").c_str(), workers.c_str(),
+              result.wall_s, result.sheet_frames_per_s, failed);
+  if (job && result.ranks > 1) {
+    // How the sheets were spread, and what coordinating them cost rank 0.
+    std::string sheets, seconds;
+    for (const pt::RankLoad& l : job->loads) {
+      sheets += (sheets.empty() ? "" : " ") + std::to_string(l.sheets);
+      char s[32];
+      std::snprintf(s, sizeof s, "%s%.2f", seconds.empty() ? "" : " ", l.sheet_s);
+      seconds += s;
     }
+    const double n = std::max(1, result.sheets);
+    const double remote = std::max(1, result.sheets - job->loads.front().sheets);
+    std::printf("ranks: sheets %s; sheet time %s s; rank 0 coordinating %.1f us CPU per sheet; %.2f messages, "
+                "%.0f B per sheet of the other ranks\n",
+                sheets.c_str(), seconds.c_str(), 1e6 * job->coordinator_cpu_s / n, job->messages / remote,
+                job->bytes / remote);
   }
-  OutputDir out(cli.out.empty() ? fs::path("out") / (base.name + "-batch") : fs::path(cli.out));
+  std::printf("wrote %s\nwrote %s\n", json_path.string().c_str(), csv_path.string().c_str());
+  std::fflush(stdout);
+  for (const pt::SheetOutcome& o : result.outcomes)
+    if (o.status != "ok") {
+      print_error("batch sheet " + std::to_string(o.index) + ": " + o.status);
+      return kExitInternal;
+    }
+  return kExitOk;
+}
+
+// The exit status and the one line for the exception being handled.
+struct Failure {
+  int status = kExitOk;
+  std::string message;
+};
+Failure describe_current_exception(const std::string& scenario_file) {
+  try {
+    throw;
+  } catch (const pt::InputError& e) {
+    return {kExitInput, e.what()};
+  } catch (const pt::GeometryError& e) {
+    // Geometry messages name the problem; the file is ours to add.
+    return {kExitInput, scenario_file + ": " + e.what()};
+  } catch (const UsageError& e) {
+    return {kExitInput, e.what()};
+  } catch (const std::exception& e) {
+    return {kExitInternal, std::string("internal error: ") + e.what()};
+  } catch (...) {
+    return {kExitInternal, "internal error: unknown exception"};
+  }
+}
+
+// The batch on the ranks of an MPI job. Every rank reads the scenario and checks its share of the sheets
+// (rank r: sheets r, r + N, …), rank 0 then the output directory; the job reports the failure one process
+// would have reported first (the rank that found it prints the line) and every rank exits with its status,
+// before anything is written. Then the sheets run on every rank and rank 0 writes the files.
+int batch_command_on_ranks(const BatchCli& cli, const pt::BatchRanks& ranks) {
+  std::optional<pt::Scenario> base;
+  pt::BatchOptions options;
+  std::optional<OutputDir> out;
+  int32_t key = pt::kNoFailure;
+  Failure failure;
+  try {
+    check_out_given(cli.out_given, cli.out);
+    base = pt::load_scenario(cli.scenario, cli.settings);
+    options = batch_options(cli);
+    pt::check_batch_threads(options);
+    for (int32_t i = ranks.rank; i < options.sheets && key == pt::kNoFailure; i += ranks.size) {
+      try {
+        pt::validate_batch_sheet(*base, options, i);
+      } catch (...) {
+        key = i;
+        failure = describe_current_exception(cli.scenario);
+      }
+    }
+    if (ranks.rank == 0 && key == pt::kNoFailure) {
+      try {
+        out.emplace(batch_out_path(cli, *base));
+        out->create();
+      } catch (...) {
+        key = options.sheets;  // one process checks the directory after the sheets
+        failure = describe_current_exception(cli.scenario);
+      }
+    }
+  } catch (...) {
+    key = -1;
+    failure = describe_current_exception(cli.scenario);
+  }
+  const pt::RankFailure first = pt::first_failure_on_ranks(ranks, key, failure.status);
+  if (first.key != pt::kNoFailure) {
+    if (first.rank == ranks.rank) report_error(failure.message);
+    return first.exit_status;
+  }
+
+  pt::BatchOnRanks job;
+  try {
+    // mpirun passes rank 0's stderr through a pipe: the bar goes to the terminal mpirun was started from,
+    // when it runs on this host.
+    std::unique_ptr<std::FILE, int (*)(std::FILE*)> tty(nullptr, std::fclose);
+    if (ranks.rank == 0 && ::isatty(STDERR_FILENO) != 1) tty.reset(std::fopen("/dev/tty", "w"));
+    std::FILE* stream = ranks.rank != 0 ? nullptr : ::isatty(STDERR_FILENO) == 1 ? stderr : tty.get();
+    Progress progress(options.sheets, stream);
+    job = pt::run_batch_on_ranks(ranks, *base, options, [&](int32_t done, int32_t) { progress.update(done); });
+  } catch (...) {
+    // The other ranks wait for this one: the job ends.
+    const Failure f = describe_current_exception(cli.scenario);
+    report_error(f.message);
+    pt::abort_ranks(f.status);
+  }
+  if (ranks.rank != 0) return kExitOk;
+  return finish_batch(job.result, *base, *out, &job);
+}
+
+int batch_command(const BatchCli& cli, const pt::BatchRanks& ranks) {
+  if (ranks.size > 1) return batch_command_on_ranks(cli, ranks);
+  if (!pt::batch_mpi_built() && pt::launcher_ranks().size > 1)
+    throw UsageError("batch: this papertear was built without MPI (libopenmpi-dev), so each of the " +
+                     std::to_string(pt::launcher_ranks().size) + " processes mpirun started would run the whole batch");
+  check_out_given(cli.out_given, cli.out);
+  const pt::Scenario base = pt::load_scenario(cli.scenario, cli.settings);
+  const pt::BatchOptions options = batch_options(cli);
+  // Every sheet's variation is checked before any runs, so a bad --vary range fails fast with exit 2.
+  for (int32_t i = 0; i < options.sheets; ++i) pt::validate_batch_sheet(base, options, i);
+  OutputDir out(batch_out_path(cli, base));
   out.create();  // before the sheets run: a bad --out fails fast
 
   pt::BatchResult result;
@@ -313,24 +458,7 @@ int batch_command(const BatchCli& cli) {
       progress.update(done);
     });
   }
-  const fs::path json_path = out.path() / "batch.json", csv_path = out.path() / "batch.csv";
-  pt::write_batch_csv(result, csv_path.string());
-  pt::write_batch_json(result, base.name, json_path.string());
-  out.commit();
-
-  int failed = 0;
-  for (const pt::SheetOutcome& o : result.outcomes) failed += o.status != "ok";
-  std::printf("%s: %s x %s on %s in %.3f s, %.1f sheet-frames/s, %d failed\n", base.name.c_str(),
-              plural(result.sheets, "sheet").c_str(), plural(result.frames, "frame").c_str(),
-              plural(result.threads, "thread").c_str(), result.wall_s, result.sheet_frames_per_s, failed);
-  std::printf("wrote %s\nwrote %s\n", json_path.string().c_str(), csv_path.string().c_str());
-  std::fflush(stdout);
-  for (const pt::SheetOutcome& o : result.outcomes)
-    if (o.status != "ok") {
-      print_error("batch sheet " + std::to_string(o.index) + ": " + o.status);
-      return kExitInternal;
-    }
-  return kExitOk;
+  return finish_batch(result, base, out, nullptr);
 }
 
 }  // namespace
@@ -339,6 +467,7 @@ int main(int argc, char** argv) {
   CLI::App app{"papertear: paper torn by fingers (Schreck et al., Interactive paper tearing, EG 2017)"};
   app.set_version_flag("--version", std::string("papertear ") + pt::version());
   app.require_subcommand(1);
+  g_quiet = pt::launcher_ranks().rank > 0;
 
   RunOptions run;
   CLI::App* run_cmd = app.add_subcommand("run", "simulate a scenario and write DIR/result.json");
@@ -361,7 +490,7 @@ int main(int argc, char** argv) {
   check_cmd->add_option("--set", check_settings, set_help);
 
   BatchCli batch;
-  CLI::App* batch_cmd = app.add_subcommand("batch", "simulate N variations of a scenario in parallel");
+  CLI::App* batch_cmd = app.add_subcommand("batch", "simulate N variations of a scenario in parallel (under mpirun -np N: over N processes)");
   batch_cmd->add_option("SCENARIO", batch.scenario, "scenario file (JSON)")->required();
   batch_cmd->add_option("--sheets", batch.sheets, "number of sheets")->required()->check(CLI::Range(1, 1'000'000));
   batch_cmd->add_option("--set", batch.settings, set_help);
@@ -386,28 +515,21 @@ int main(int argc, char** argv) {
 
   run.out_given = run_out->count() > 0;
   batch.out_given = batch_out->count() > 0;
+  // MPI runs only for a batch, and only under a launcher (mpirun, srun); finalized after the last line.
+  std::optional<pt::BatchMpi> mpi;
   try {
     if (*run_cmd) return run_command(run);
     if (*check_cmd) return check_command(check_path, check_settings);
-    if (*batch_cmd) return batch_command(batch);
+    if (*batch_cmd) {
+      mpi.emplace();
+      return batch_command(batch, mpi->ranks());
+    }
     print_error("no command (run, check or batch)");
     return kExitInput;
-  } catch (const pt::InputError& e) {
-    print_error(e.what());
-    return kExitInput;
-  } catch (const pt::GeometryError& e) {
-    // Geometry messages name the problem; the file is ours to add.
-    const std::string& file = *run_cmd ? run.scenario : *check_cmd ? check_path : batch.scenario;
-    print_error(file + ": " + e.what());
-    return kExitInput;
-  } catch (const UsageError& e) {
-    print_error(e.what());
-    return kExitInput;
-  } catch (const std::exception& e) {
-    print_error(std::string("internal error: ") + e.what());
-    return kExitInternal;
   } catch (...) {
-    print_error("internal error: unknown exception");
-    return kExitInternal;
+    const std::string& file = *run_cmd ? run.scenario : *check_cmd ? check_path : batch.scenario;
+    const Failure f = describe_current_exception(file);
+    print_error(f.message);
+    return f.status;
   }
 }

@@ -123,89 +123,110 @@ Scenario batch_sheet_scenario(const Scenario& base, const BatchOptions& options,
   return s;
 }
 
-BatchResult run_batch(const Scenario& base, const BatchOptions& options,
-                      const std::function<void(int32_t, int32_t)>& progress) {
-  if (options.threads < 1 || options.threads > kMaxThreads || options.threads_per_sheet > kMaxThreads)
-    throw InputError("batch threads: must be 1 to " + std::to_string(kMaxThreads) + ", got " +
-                     std::to_string(std::max(options.threads, options.threads_per_sheet)));
+void validate_batch_sheet(const Scenario& base, const BatchOptions& options, int32_t index) {
+  try {
+    validate_scenario(batch_sheet_scenario(base, options, index));
+  } catch (const InputError& e) {
+    throw InputError(std::string(e.what()) + " (batch sheet " + std::to_string(index) + ")");
+  }
+}
+
+SheetRun run_batch_sheet(const Scenario& base, const BatchOptions& options, int32_t index) {
+  SheetRun run;
+  SheetOutcome& out = run.outcome;
+  out.index = index;
+  const Scenario s = batch_sheet_scenario(base, options, index);
+  out.fiber_seed = s.material.fiber_seed;
+  out.mesh_seed = s.mesh_seed;
+  for (const Variation& v : options.vary) {
+    const double a = options.sheets > 1 ? static_cast<double>(index) / (options.sheets - 1) : 0.0;
+    out.varied.push_back(v.from + (v.to - v.from) * a);
+  }
+  try {
+    EngineOptions eo;
+    eo.threads = std::max(1, options.threads_per_sheet);
+    Simulation sim(s, eo);
+    for (int32_t f = 0; f < s.sim.frames; ++f) sim.step();
+    sim.flush();
+    const Sheet& sh = sim.sheet();
+    out.triangles = sh.tris.size();
+    out.tears = static_cast<int32_t>(sh.tears.size());
+    out.pieces = sh.topo.piece_count;
+    for (const Tear& t : sh.tears)
+      for (size_t k = 1; k < t.tips.size(); ++k) out.tear_length += (t.tips[k] - t.tips[k - 1]).norm();
+    for (const Finger& f : sh.fingers) out.max_finger_force = std::max(out.max_finger_force, f.max_force);
+    out.frame_ms = sim.timings().frame.avg();
+    out.hash = sim.state_hash();
+    run.systems = sim.timings().systems;
+    run.frames_timed = sim.timings().frame.count;
+    run.bytes = sheet_bytes(sh);
+    run.solver_bytes = sim.solver_bytes();
+    for (const FrameStats& fs : sim.frame_stats()) run.triangles += fs.triangles;
+    if (const std::string why = solver_failure(sim); !why.empty()) out.status = "error: " + why;
+  } catch (const std::exception& e) {
+    out.status = std::string("error: ") + e.what();
+  }
+  return run;
+}
+
+BatchResult merge_batch_sheets(const Scenario& base, const BatchOptions& options, const std::vector<SheetRun>& runs,
+                               double wall_s) {
   BatchResult result;
   result.sheets = options.sheets;
   result.threads = options.threads;
   result.frames = options.frames >= 0 ? options.frames : base.sim.frames;
   result.vary = options.vary;
   result.fixed_seeds = options.fixed_seeds;
-  result.outcomes.resize(options.sheets);
-  std::vector<TimingReport> reports(options.sheets);
-  std::vector<size_t> bytes(options.sheets, 0), solver_bytes(options.sheets, 0);
-  // Triangles processed per sheet (sum over its frames): written by the sheet's task only, merged below.
-  // Adding into result.throughput from the tasks raced between workers (TSan, issue 9).
-  std::vector<double> triangles(options.sheets, 0.0);
-  std::atomic<int32_t> done{0};
-
-  const auto t0 = std::chrono::steady_clock::now();
-  tbb::task_arena arena(std::max(1, options.threads));
-  arena.execute([&] {
-    // One sheet per task: sheets differ in cost (tears, remeshing) and work stealing evens them out.
-    tbb::parallel_for(0, options.sheets, [&](int32_t i) {
-      SheetOutcome& out = result.outcomes[i];
-      out.index = i;
-      const Scenario s = batch_sheet_scenario(base, options, i);
-      out.fiber_seed = s.material.fiber_seed;
-      out.mesh_seed = s.mesh_seed;
-      for (const Variation& v : options.vary) {
-        const double a = options.sheets > 1 ? static_cast<double>(i) / (options.sheets - 1) : 0.0;
-        out.varied.push_back(v.from + (v.to - v.from) * a);
-      }
-      try {
-        EngineOptions eo;
-        eo.threads = std::max(1, options.threads_per_sheet);
-        Simulation sim(s, eo);
-        for (int32_t f = 0; f < s.sim.frames; ++f) sim.step();
-        sim.flush();
-        const Sheet& sh = sim.sheet();
-        out.triangles = sh.tris.size();
-        out.tears = static_cast<int32_t>(sh.tears.size());
-        out.pieces = sh.topo.piece_count;
-        for (const Tear& t : sh.tears)
-          for (size_t k = 1; k < t.tips.size(); ++k) out.tear_length += (t.tips[k] - t.tips[k - 1]).norm();
-        for (const Finger& f : sh.fingers) out.max_finger_force = std::max(out.max_finger_force, f.max_force);
-        out.frame_ms = sim.timings().frame.avg();
-        out.hash = sim.state_hash();
-        reports[i] = sim.timings();
-        bytes[i] = sheet_bytes(sh);
-        solver_bytes[i] = sim.solver_bytes();
-        for (const FrameStats& fs : sim.frame_stats()) triangles[i] += fs.triangles;
-        if (const std::string why = solver_failure(sim); !why.empty()) out.status = "error: " + why;
-      } catch (const std::exception& e) {
-        out.status = std::string("error: ") + e.what();
-      }
-      const int32_t n = ++done;
-      if (progress) progress(n, options.sheets);
-    });
-  });
-  result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-
-  // Merge per-sheet reports in sheet order (deterministic sums).
+  result.wall_s = wall_s;
+  // Per-sheet reports in sheet order (deterministic sums).
   size_t total_bytes = 0, total_solver_bytes = 0;
   int64_t sheet_frames = 0;
-  for (int32_t i = 0; i < options.sheets; ++i) {
+  for (const SheetRun& run : runs) {
     for (size_t k = 0; k < 11; ++k) {
-      const TimingStat& s = reports[i].systems[k];
+      const TimingStat& s = run.systems[k];
       result.systems[k].sum += s.sum;
       result.systems[k].count += s.count;
       result.systems[k].max = std::max(result.systems[k].max, s.max);
       result.throughput[k].calls += s.count;
       result.throughput[k].total_ms += s.sum;
-      result.throughput[k].triangles += triangles[i];
+      result.throughput[k].triangles += run.triangles;
     }
-    sheet_frames += reports[i].frame.count;
-    total_bytes += bytes[i];
-    total_solver_bytes += solver_bytes[i];
+    sheet_frames += run.frames_timed;
+    total_bytes += run.bytes;
+    total_solver_bytes += run.solver_bytes;
+    result.outcomes.push_back(run.outcome);
   }
   result.bytes_per_sheet = options.sheets ? total_bytes / options.sheets : 0;
   result.solver_bytes_per_sheet = options.sheets ? total_solver_bytes / options.sheets : 0;
-  result.sheet_frames_per_s = result.wall_s > 0 ? static_cast<double>(sheet_frames) / result.wall_s : 0.0;
+  result.sheet_frames_per_s = wall_s > 0 ? static_cast<double>(sheet_frames) / wall_s : 0.0;
   return result;
+}
+
+void check_batch_threads(const BatchOptions& options) {
+  if (options.threads < 1 || options.threads > kMaxThreads || options.threads_per_sheet > kMaxThreads)
+    throw InputError("batch threads: must be 1 to " + std::to_string(kMaxThreads) + ", got " +
+                     std::to_string(std::max(options.threads, options.threads_per_sheet)));
+}
+
+BatchResult run_batch(const Scenario& base, const BatchOptions& options,
+                      const std::function<void(int32_t, int32_t)>& progress) {
+  check_batch_threads(options);
+  std::vector<SheetRun> runs(options.sheets);
+  std::atomic<int32_t> done{0};
+  const auto t0 = std::chrono::steady_clock::now();
+  tbb::task_arena arena(std::max(1, options.threads));
+  arena.execute([&] {
+    // One sheet per task: sheets differ in cost (tears, remeshing) and work stealing evens them out. Each
+    // task writes only its own runs[i]; the sums are made afterwards (adding into shared totals from the
+    // tasks raced between workers, TSan, issue 9).
+    tbb::parallel_for(0, options.sheets, [&](int32_t i) {
+      runs[i] = run_batch_sheet(base, options, i);
+      const int32_t n = ++done;
+      if (progress) progress(n, options.sheets);
+    });
+  });
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return merge_batch_sheets(base, options, runs, wall_s);
 }
 
 void write_batch_json(const BatchResult& r, const std::string& scenario_name, const std::string& path) {
@@ -213,6 +234,8 @@ void write_batch_json(const BatchResult& r, const std::string& scenario_name, co
   j["scenario"] = scenario_name;
   j["sheets"] = r.sheets;
   j["threads"] = r.threads;
+  // Only from several ranks: one process writes the batch.json it always wrote.
+  if (r.ranks > 1) j["ranks"] = r.ranks;
   j["frames"] = r.frames;
   nlohmann::ordered_json vary = nlohmann::json::array();
   for (const Variation& v : r.vary) vary.push_back({{"key", v.key}, {"from", v.from}, {"to", v.to}});

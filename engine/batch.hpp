@@ -7,6 +7,7 @@
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
@@ -57,6 +58,8 @@ struct SystemThroughput {
 
 struct BatchResult {
   int32_t sheets = 0, threads = 0, frames = 0;
+  int32_t ranks = 1;                            // MPI ranks that ran the sheets (threads is per rank);
+                                                // batch.json has "ranks" only when it is more than 1
   std::vector<Variation> vary;                  // what was varied (SheetOutcome::varied in this order)
   bool fixed_seeds = false;
   double wall_s = 0, sheet_frames_per_s = 0;
@@ -70,9 +73,33 @@ struct BatchResult {
 // The scenario of sheet `index` (seeds derived from the index, variations applied).
 Scenario batch_sheet_scenario(const Scenario& base, const BatchOptions& options, int32_t index);
 
+// Throws the InputError of sheet `index`'s scenario if it is invalid, the message naming the sheet, so that
+// a bad --vary range fails before any sheet runs.
+void validate_batch_sheet(const Scenario& base, const BatchOptions& options, int32_t index);
+
+// Throws InputError unless threads and threads_per_sheet are 1 to kMaxThreads.
+void check_batch_threads(const BatchOptions& options);
+
 // Runs the batch. `progress(done, total)` is called from worker threads after each sheet (may be empty).
 BatchResult run_batch(const Scenario& base, const BatchOptions& options,
                       const std::function<void(int32_t, int32_t)>& progress = {});
+
+// What one sheet of a batch leaves for the batch's result: its outcome and what the merge sums. A sheet that
+// throws is an outcome with status "error: …", not an exception. run_batch is run_batch_sheet for every
+// sheet and merge_batch_sheets over them; engine/batch_mpi.cpp runs the sheets on several processes.
+struct SheetRun {
+  SheetOutcome outcome;
+  std::array<TimingStat, 11> systems;  // kSystemNames order, over the sheet's frames
+  int64_t frames_timed = 0;            // TimingReport::frame.count
+  size_t bytes = 0, solver_bytes = 0;  // sheet_bytes and the solver's at the end
+  double triangles = 0;                // triangles processed, summed over the frames
+};
+SheetRun run_batch_sheet(const Scenario& base, const BatchOptions& options, int32_t index);
+
+// The batch's result from every sheet's run, `runs[i]` being sheet i's; sums in sheet order, so they do
+// not depend on which thread or process ran a sheet. `wall_s`: the batch's time.
+BatchResult merge_batch_sheets(const Scenario& base, const BatchOptions& options, const std::vector<SheetRun>& runs,
+                               double wall_s);
 
 void write_batch_json(const BatchResult& result, const std::string& scenario_name, const std::string& path);
 void write_batch_csv(const BatchResult& result, const std::string& path);

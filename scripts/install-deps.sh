@@ -10,6 +10,7 @@ PKGS=(
   libglfw3-dev libgl-dev libimgui-dev xvfb xauth
   pybind11-dev python3-dev python3-numpy python3-jsonschema
   clang libclang-rt-14-dev
+  libopenmpi-dev openmpi-bin
 )
 missing=()
 for p in "${PKGS[@]}"; do
