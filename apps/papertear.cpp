@@ -16,6 +16,7 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <regex>
@@ -194,6 +195,23 @@ std::string plural(int64_t n, const char* word) {
   return std::to_string(n) + " " + word + (n == 1 ? "" : "s");
 }
 
+std::string gigabytes(double bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g GB", bytes / 1e9);
+  return buf;
+}
+
+// A batch runs up to --threads sheets at once: their estimated memory (the mesh may have 20% more
+// triangles than asked) must fit the machine, which a sheet alone at the scenario cap does.
+void check_memory_for_batch(int32_t at_once, int32_t triangles) {
+  const double physical = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGE_SIZE));
+  const double need = at_once * pt::estimated_sheet_bytes(static_cast<int64_t>(triangles) * 6 / 5);
+  if (!(physical > 0) || need <= physical) return;
+  throw UsageError("--threads: " + plural(at_once, "sheet") + " of " + plural(triangles, "triangle") +
+                   " at once would take about " + gigabytes(need) + " of memory, the machine has " +
+                   gigabytes(physical) + " (fewer --threads or triangles)");
+}
+
 // --out "" given on the command line: refused rather than read as "the default".
 void check_out_given(bool given, const std::string& out) {
   if (given && out.empty()) throw UsageError("--out: empty directory name (omit --out for the default)");
@@ -294,13 +312,17 @@ int batch_command(const BatchCli& cli) {
   options.fixed_seeds = cli.fixed_seeds;
   for (const std::string& v : cli.vary) options.vary.push_back(pt::parse_variation(v));
   // Every sheet's variation is checked before any runs, so a bad --vary range fails fast with exit 2.
+  int32_t largest = 0;
   for (int32_t i = 0; i < options.sheets; ++i) {
     try {
-      pt::validate_scenario(pt::batch_sheet_scenario(base, options, i));
+      const pt::Scenario sheet = pt::batch_sheet_scenario(base, options, i);
+      pt::validate_scenario(sheet);
+      largest = std::max(largest, sheet.triangles);
     } catch (const pt::InputError& e) {
       throw pt::InputError(std::string(e.what()) + " (batch sheet " + std::to_string(i) + ")");
     }
   }
+  check_memory_for_batch(std::min(options.sheets, options.threads), largest);
   OutputDir out(cli.out.empty() ? fs::path("out") / (base.name + "-batch") : fs::path(cli.out));
   out.create();  // before the sheets run: a bad --out fails fast
 

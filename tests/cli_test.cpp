@@ -590,6 +590,21 @@ TEST_F(Cli, OutlineFarThinnerThanTheMeshIsExit2) {
   EXPECT_FALSE(fs::exists(dir_ / "o"));
 }
 
+// Issue 27, item 6: a batch runs --threads sheets at once; sheets at the triangle cap that would not fit
+// the machine's memory together are refused before any runs: exit 2 naming --threads and the estimate.
+TEST_F(Cli, BatchBeyondTheMachinesMemoryIsExit2) {
+  const double physical = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGE_SIZE));
+  if (physical > 2e11) GTEST_SKIP() << "more than 200 GB of memory here";
+  // 64 sheets of 500 000 triangles at once: about 277 GB.
+  const Result r = run({"batch", good().string(), "--sheets", "64", "--threads", "64", "--set", "sheet.triangles=500000",
+                        "--out", "b"});
+  expect_input_error(r, "batch beyond memory");
+  EXPECT_EQ(r.err.rfind("papertear: --threads: 64 sheets of 500000 triangles at once would take about ", 0), 0u)
+      << r.err;
+  EXPECT_TRUE(r.out.empty()) << r.out;
+  EXPECT_FALSE(fs::exists(dir_ / "b"));
+}
+
 // check and run agree on a finger just outside the outline, and both name its JSON path (before: check
 // exit 0, run exit 2 "point (-1e-10, 0.14) is outside the outline").
 TEST_F(Cli, CheckAndRunAgreeOnAFingerJustOutside) {

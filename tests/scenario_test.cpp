@@ -515,6 +515,24 @@ TEST(BadInput, ImplausiblePhysicalConstants) {
                                            "material.density=25000", "material.bending_scale=1e4", "sim.fps=1e5"}));
 }
 
+// Issue 27, item 6: the accepted maximum of 2 000 000 triangles took more than 15 GB. The cap is set from
+// the measured memory per triangle, and the refusal says the estimate.
+TEST(BadInput, TrianglesBeyondTheMemoryCap) {
+  const std::string file = std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json";
+  const std::string message = error_of_setting(file, "sheet.triangles=2000000");
+  EXPECT_EQ(message.rfind(file + ": sheet.triangles: 2000000 triangles would take about ", 0), 0u) << message;
+  EXPECT_NE(message.find(" GB of memory; at most " + std::to_string(pt::kMaxSheetTriangles) + " (about "),
+            std::string::npos) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  EXPECT_NE(error_of_setting(file, "sheet.triangles=" + std::to_string(pt::kMaxSheetTriangles + 1)), "no error");
+  EXPECT_EQ(error_of_setting(file, "sheet.triangles=" + std::to_string(pt::kMaxSheetTriangles)), "no error");
+  // The largest sheet, at the mesher's +20% and two at once (a batch's default threads), fits in half of a
+  // 24 GB machine; and the estimate grows with the sheet.
+  EXPECT_LT(2 * pt::estimated_sheet_bytes(pt::kMaxSheetTriangles * 6 / 5), 12e9);
+  EXPECT_GT(pt::estimated_sheet_bytes(2'000'000), 15e9);
+  EXPECT_LT(pt::estimated_sheet_bytes(100'000), pt::estimated_sheet_bytes(200'000));
+}
+
 // Issue 27: an axis whose norm overflows (or underflows) is still a direction.
 TEST(Scenario, HandAxisOfAnyFiniteSize) {
   for (const char* axis : {"[1e200, 1e200, 0]", "[1e-200, 0, 1e-200]", "[1e308, -1e308, 1e308]"}) {
