@@ -243,6 +243,7 @@ int run_command(const RunOptions& opt) {
     Progress progress(scenario.sim.frames);
     for (int32_t f = 0; f < scenario.sim.frames; ++f) {
       sim.step();
+      if (!sim.stop_reason().empty()) break;  // far from the origin: result.json says why
       if (opt.obj) {
         // Textured frames (OBJ + MTL, paper.png once, the carved atlas when carving changed): carve this
         // frame's segments now (the carving node would do it beside the next frame's physics; the result

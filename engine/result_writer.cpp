@@ -194,6 +194,8 @@ void write_file_atomically(const std::string& path, const std::string& content) 
 }
 
 std::string solver_failure(const Simulation& sim) {
+  // A run stopped far from the origin has no result either (its later frames did not run).
+  if (!sim.stop_reason().empty()) return sim.stop_reason();
   // Refused substeps leave the state as it was; a few are survivable, most mean the sheet never moved
   // (a step far outside what the solver can take). Relaxation substeps add to the refusals, not to the count.
   const int64_t substeps = static_cast<int64_t>(sim.frame()) * sim.scenario().sim.substeps;

@@ -25,8 +25,9 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::
 // std::runtime_error when the file cannot be written.
 bool write_result_json(const Simulation& sim, const std::string& path, std::string* error = nullptr);
 
-// "" when the solver did its work; else why the run is not a result ("the solver refused 30 of the run's 30
-// substeps ..."): more than half of frames × substeps refused.
+// "" when the solver did its work; else why the run is not a result: the simulation stopped with a vertex
+// beyond ±kMaxSheetPosition (Simulation::stop_reason), or more than half of frames × substeps refused ("the
+// solver refused 30 of the run's 30 substeps ...").
 std::string solver_failure(const Simulation& sim);
 
 // The 2D pattern, upright (v up), viewBox in millimetres: triangles coloured by region kind, boundary,

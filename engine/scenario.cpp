@@ -490,6 +490,29 @@ std::string fmt_bytes(double bytes) {
   return buf;
 }
 
+// How far from the origin the scenario can take the sheet (m, largest coordinate): carried by the keys (a
+// hand's rotation swings a finger about the hand's centroid, at most twice the farthest point away from
+// it, and its translation adds) and falling freely for the whole run, ½ |g| T² (damping ignored: an upper
+// bound).
+struct SheetReach {
+  double carried = 0;
+  double fall = 0;
+};
+
+SheetReach sheet_reach(const Scenario& s, const std::vector<Vec2>& outline) {
+  double farthest = 0, translate = 0;
+  for (const Vec2& p : outline) farthest = std::max(farthest, p.cwiseAbs().maxCoeff());
+  for (const FingerSpec& f : s.fingers)
+    for (const FingerKey& k : f.keys) farthest = std::max(farthest, k.position.cwiseAbs().maxCoeff());
+  for (const HandSpec& h : s.hands)
+    for (const HandKey& k : h.keys) translate = std::max(translate, k.translate.cwiseAbs().maxCoeff());
+  SheetReach r;
+  r.carried = 3 * farthest + translate;
+  const double duration = s.sim.frames / s.sim.fps;
+  r.fall = 0.5 * s.sim.gravity.norm() * duration * duration;
+  return r;
+}
+
 void validate_key_times(const std::string& file, const std::string& keys_path, const std::vector<double>& times) {
   for (size_t k = 0; k < times.size(); ++k) {
     const std::string p = child(child(keys_path, k), size_t(0));
@@ -648,6 +671,18 @@ void validate_scenario(const Scenario& s) {
       if (!(key.axis.cwiseAbs().maxCoeff() > 0)) fail(file, child(kp, "axis"), "rotation axis must be non-zero");
     }
     validate_key_times(file, child(p, "keys"), times);
+  }
+
+  // Far from the origin doubles do not resolve the sheet's strains (engine/scenario.hpp).
+  const SheetReach reach = sheet_reach(s, outline);
+  if (reach.carried + reach.fall > kMaxSheetPosition) {
+    const double room = std::max(0.0, kMaxSheetPosition - reach.carried);
+    const double g = s.sim.gravity.norm();
+    const double max_frames = std::floor(std::sqrt(2 * room / g) * s.sim.fps);
+    fail(file, "sim.frames",
+         std::to_string(s.sim.frames) + " frames at " + fmt(s.sim.fps) + " frames/s under a gravity of " + fmt(g) +
+             " m/s^2 let a released sheet fall " + fmt(reach.fall) + " m, beyond the +-" + fmt(kMaxSheetPosition) +
+             " m within which positions are resolved; at most " + fmt(max_frames) + " frames");
   }
 }
 

@@ -111,4 +111,10 @@ inline constexpr int32_t kMaxSheetTriangles = 500'000;
 // n log n).
 double estimated_sheet_bytes(int64_t triangles);
 
+// Every position of the sheet stays within ±kMaxSheetPosition m on each axis (docs/scenario-format.md):
+// beyond it doubles resolve the sheet's strains too coarsely (at 4.5e16 m a free fall tore a sheet into
+// 139 pieces). Validation refuses scenarios whose keys or free fall can carry the sheet beyond it, and a
+// simulation stops when a vertex leaves it anyway (Simulation::stop_reason).
+inline constexpr double kMaxSheetPosition = 1e6;
+
 }  // namespace pt

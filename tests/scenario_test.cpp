@@ -533,6 +533,30 @@ TEST(BadInput, TrianglesBeyondTheMemoryCap) {
   EXPECT_LT(pt::estimated_sheet_bytes(100'000), pt::estimated_sheet_bytes(200'000));
 }
 
+// Issue 27, item 14: a sheet falling freely for 3 000 s under 1e4 m/s² reached 4.5e16 m and tore into 139
+// pieces from rounding. A scenario whose free fall or keys can carry the sheet beyond ±kMaxSheetPosition
+// is refused, naming sim.frames and the distance.
+TEST(BadInput, SheetCarriedBeyondThePositionBound) {
+  const std::string file = std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json";
+  std::string message;
+  try {
+    pt::load_scenario(file, {"sim.fps=1", "sim.frames=3000", "sim.gravity=[0, 0, -1e4]"});
+  } catch (const pt::InputError& e) {
+    message = e.what();
+  }
+  EXPECT_EQ(message.rfind(file + ": sim.frames: 3000 frames at 1 frames/s under a gravity of 10000 m/s^2 let a "
+                                 "released sheet fall 4.5e+10 m, beyond the +-1e+06 m",
+                          0),
+            0u)
+      << message;
+  EXPECT_NE(message.find("; at most 14 frames"), std::string::npos) << message;
+  // At the bound: 14 s fall 0.98e6 m; the soak's 10 000 frames at 30 fps under 9.81 fall 0.55e6 m.
+  EXPECT_NO_THROW(pt::load_scenario(file, {"sim.fps=1", "sim.frames=14", "sim.gravity=[0, 0, -1e4]"}));
+  EXPECT_NO_THROW(pt::load_scenario(std::string(PT_SOURCE_DIR) + "/tests/soak/soak.json"));
+  // No gravity: as many frames as a file may have.
+  EXPECT_NO_THROW(pt::load_scenario(file, {"sim.frames=10000000", "sim.gravity=[0, 0, 0]"}));
+}
+
 // Issue 27: an axis whose norm overflows (or underflows) is still a direction.
 TEST(Scenario, HandAxisOfAnyFiniteSize) {
   for (const char* axis : {"[1e200, 1e200, 0]", "[1e-200, 0, 1e-200]", "[1e308, -1e308, 1e308]"}) {
