@@ -545,6 +545,18 @@ void validate_scenario(const Scenario& s) {
     check_vec(file, child(outline_path, i), outline[i].data(), 2, kMaxCoordinate);
   if (const std::string problem = outline_problem(outline); !problem.empty()) fail(file, outline_path, problem);
   check_int(file, "sheet.triangles", s.triangles, kMinTriangles, kMaxTriangles);
+  // What `run` would refuse while meshing, where a lower bound on any quality mesh already shows it (a
+  // 0.3 m x 1e-7 m strip). Fingers count as points so that check never refuses what run meshes.
+  {
+    const double min_angle = MeshRequest{}.min_angle_deg;
+    const double needed = min_quality_triangles(outline, min_angle);
+    const int64_t limit = max_mesh_triangles(s.triangles, static_cast<int64_t>(outline.size() + s.fingers.size()));
+    if (needed > static_cast<double>(limit))
+      fail(file, outline_path,
+           "features far finer than a mesh of " + std::to_string(s.triangles) + " triangles (a narrow strip or a short "
+           "edge): any mesh of it with angles of at least " + fmt(min_angle) + " deg has " + fmt(needed) +
+           " triangles or more (tan(angle) perimeter^2 / 36 area), above " + std::to_string(limit));
+  }
   if (s.triangles > kMaxSheetTriangles)
     fail(file, "sheet.triangles",
          std::to_string(s.triangles) + " triangles would take about " + fmt_bytes(estimated_sheet_bytes(s.triangles)) +

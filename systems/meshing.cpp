@@ -479,6 +479,28 @@ bool point_on_sheet(const std::vector<Vec2>& outline, const Vec2& p) {
   return point_in_polygon(outline, p, outline_snap_distance(outline));
 }
 
+int64_t max_mesh_triangles(int64_t target, int64_t points) {
+  return std::max<int64_t>({4 * target, 4 * points, 10'000});
+}
+
+double min_quality_triangles(const std::vector<Vec2>& outline, double min_angle_deg) {
+  const size_t n = outline.size();
+  if (n < 3) return 0;
+  double perimeter = 0;
+  for (size_t i = 0; i < n; ++i) perimeter += (outline[(i + 1) % n] - outline[i]).norm();
+  const double area = std::abs(signed_area(outline));
+  if (!(area > 0) || !(min_angle_deg > 0)) return 0;
+  return std::tan(min_angle_deg * std::numbers::pi / 180) * perimeter * perimeter / (36 * area);
+}
+
+namespace {
+std::string too_fine_message(int64_t target, double min_angle_deg, int64_t limit) {
+  return "outline has features far finer than a mesh of " + std::to_string(target) +
+         " triangles (a narrow strip or a short edge): meshing it at " + std::to_string(int(min_angle_deg)) +
+         " deg needs more than " + std::to_string(limit) + " triangles";
+}
+}  // namespace
+
 void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vector<Tri>& tri,
                   std::vector<int32_t>& required_vertex) {
   const std::string problem = outline_problem(request.outline);
@@ -503,7 +525,9 @@ void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vect
   // The most triangles a mesh of this request may have: a few times what was asked, or what the outline's
   // own vertices need, never below a small sheet's worth. A triangulated polygon has T = 2 V_inside +
   // V_boundary − 2 ≥ V − 2 triangles, so refinement is given up past max_triangles + 2 vertices.
-  const long max_triangles = std::max<long>({4L * request.target_triangles, 4L * long(prob.exact.size()), 10'000L});
+  const long max_triangles = max_mesh_triangles(request.target_triangles, int64_t(prob.exact.size()));
+  if (min_quality_triangles(request.outline, request.min_angle_deg) > double(max_triangles))
+    throw GeometryError(too_fine_message(request.target_triangles, request.min_angle_deg, max_triangles));
   // Delaunay refinement with edge bound S yields triangles of about 0.2 S² on average (calibrated on
   // rectangles); the loop below corrects for the boundary and the required points.
   double size = std::min(std::sqrt(prob.area / (0.2 * target)), prob.diameter);
@@ -535,11 +559,7 @@ void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vect
     if (too_coarse > 0 && too_fine > 0 && too_coarse / too_fine < 1 + 1e-6) break;  // a step in count
     size = std::min(next, prob.diameter);
   }
-  if (!best)
-    throw GeometryError("outline has features far finer than a mesh of " + std::to_string(request.target_triangles) +
-                        " triangles (a narrow strip or a short edge): meshing it at " +
-                        std::to_string(int(request.min_angle_deg)) + " deg needs more than " +
-                        std::to_string(max_triangles) + " triangles");
+  if (!best) throw GeometryError(too_fine_message(request.target_triangles, request.min_angle_deg, max_triangles));
   extract(prob, *best, rest, tri, required_vertex);
 }
 

@@ -651,18 +651,23 @@ TEST_F(Cli, ObjRunRemovesTheHiddenFramesOfADeadRun) {
   EXPECT_TRUE(fs::exists(live));
 }
 
-// Issue 27, item 5: an outline far thinner than the mesh size (0.3 m x 1e-7 m at 200 triangles) meshed
-// 4.19 M triangles and took 14 GB; now run refuses it while meshing: exit 2, one line naming the file.
+// Issue 27, item 5: an outline far thinner than the mesh size (0.3 m x 1e-7 m at 200 triangles) passed
+// check, then meshed 4.19 M triangles and took 14 GB; now check and run refuse it: exit 2, one line
+// naming the file and sheet.outline.
 TEST_F(Cli, OutlineFarThinnerThanTheMeshIsExit2) {
   std::string text = kGood;
   text.replace(text.find(R"("preset": "A6")"), 14, R"("outline": [[0, 0], [0.3, 0], [0.3, 1e-7], [0, 1e-7]])");
   text.replace(text.find("[0.02, 0.14]"), 12, "[0.1, 5e-8]");
   text.replace(text.find("[0.085, 0.14]"), 13, "[0.2, 5e-8]");
   write_file(dir_ / "thin.json", text);
-  const Result r = run({"run", "thin.json", "--out", "o"});
-  expect_input_error(r, "thin outline");
-  EXPECT_NE(r.err.find("thin.json: outline has features far finer than a mesh of 60 triangles"), std::string::npos)
-      << r.err;
+  for (const std::vector<std::string>& args : {std::vector<std::string>{"check", "thin.json"},
+                                                std::vector<std::string>{"run", "thin.json", "--out", "o"}}) {
+    const Result r = run(args);
+    expect_input_error(r, "thin outline, " + args[0]);
+    EXPECT_NE(r.err.find("thin.json: sheet.outline: features far finer than a mesh of 60 triangles"),
+              std::string::npos)
+        << r.err;
+  }
   EXPECT_FALSE(fs::exists(dir_ / "o"));
 }
 

@@ -515,6 +515,21 @@ TEST(BadInput, ImplausiblePhysicalConstants) {
                                            "material.density=25000", "material.bending_scale=1e4", "sim.fps=1e5"}));
 }
 
+// Issue 27, item 5: a 0.3 m x 1e-7 m strip at 200 triangles passed check and meshed 4.19 M triangles. Any
+// mesh of it at 20 deg has at least tan(20 deg) P^2 / 36 A = 121 000 triangles, so check refuses it.
+TEST(BadInput, OutlineFarThinnerThanTheMesh) {
+  const auto scene = [](const std::string& height) {
+    return R"({"sheet": {"outline": [[0, 0], [0.3, 0], [0.3, )" + height + R"(], [0, )" + height +
+           R"(]], "triangles": 200}, "fingers": [{"name": "a", "at": [0.1, 0]}]})";
+  };
+  const std::string message = error_of_text(scene("1e-7"), "thin.json");
+  EXPECT_EQ(message.rfind("thin.json: sheet.outline: features far finer than a mesh of 200 triangles", 0), 0u)
+      << message;
+  EXPECT_NE(message.find("has 121"), std::string::npos) << message;
+  EXPECT_NE(message.find("above 10000"), std::string::npos) << message;
+  EXPECT_EQ(error_of_text(scene("0.01"), "strip.json"), "no error");
+}
+
 // Issue 27, item 6: the accepted maximum of 2 000 000 triangles took more than 15 GB. The cap is set from
 // the measured memory per triangle, and the refusal says the estimate.
 TEST(BadInput, TrianglesBeyondTheMemoryCap) {
