@@ -5,7 +5,9 @@
 //                   [--vary KEY=FROM:TO]... [--fixed-seeds]
 //   mpirun -np N papertear batch …   (the sheets spread over N processes, docs/batch.md)
 // Exit status: 0 success; 2 invalid input (one line on stderr naming the file and the JSON path or the
-// geometric problem; nothing written); 1 internal failure (one line on stderr; never a crash).
+// geometric problem; nothing written); 1 internal failure or output that could not be written (one line
+// on stderr; never a crash). SIGINT or SIGTERM during run removes its partial output, then ends the process
+// by that signal.
 #include "engine/batch.hpp"
 #include "engine/batch_mpi.hpp"
 #include "engine/version.hpp"
@@ -19,8 +21,10 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <csignal>
 #include <regex>
 #include <cstdio>
 #include <cstring>
@@ -50,6 +54,34 @@ struct UsageError : std::runtime_error {
 // Under mpirun every process parses the same command line: the ranks other than 0 keep quiet, so a bad
 // option is one line, not one per rank (a rank that finds a bad sheet reports it with report_error).
 bool g_quiet = false;
+
+// A run's output could not be written (a full disk): exit status 1 with one line, not an internal error.
+struct OutputError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// SIGINT or SIGTERM during `run`: the frame loop stops after the current frame and unwinds, so OutputDir
+// removes the partial frames and a directory this run created; main then ends by the same signal. A
+// second signal ends the process at once (the handler restores the default).
+volatile std::sig_atomic_t g_stop_signal = 0;
+
+extern "C" void on_stop_signal(int sig) {
+  g_stop_signal = sig;
+  std::signal(sig, SIG_DFL);
+}
+
+struct Interrupted : std::runtime_error {
+  explicit Interrupted(const std::string& what, int sig) : std::runtime_error(what), signal(sig) {}
+  int signal;
+};
+
+void throw_if_interrupted(int32_t frame) {
+  const int sig = g_stop_signal;
+  if (sig == 0) return;
+  throw Interrupted(std::string(sig == SIGINT ? "SIGINT" : "SIGTERM") + " at frame " + std::to_string(frame) +
+                        ": the run stopped, its partial output removed",
+                    sig);
+}
 
 // Scripts read stderr line by line: every diagnostic is exactly one line.
 void report_error(const std::string& message) {
@@ -162,6 +194,7 @@ class OutputDir {
   fs::path begin_frames() {
     partial_frames_ = dir_ / (".frames.partial." + std::to_string(static_cast<long>(::getpid())));
     std::error_code ec;
+    remove_stale_partial_frames();
     fs::remove_all(partial_frames_, ec);
     fs::create_directories(partial_frames_, ec);
     if (ec) throw std::runtime_error("cannot create " + partial_frames_.string() + ": " + ec.message());
@@ -192,6 +225,23 @@ class OutputDir {
     partial_frames_.clear();
   }
 
+  // A run killed outright (SIGKILL, a crash) could not remove its hidden frames: the next --obj run into
+  // the same directory removes those of processes that no longer exist.
+  void remove_stale_partial_frames() {
+    static const std::regex pattern(R"(\.frames\.partial\.([0-9]{1,9}))");
+    std::error_code ec;
+    std::vector<fs::path> stale;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir_, ec)) {
+      std::smatch m;
+      const std::string name = e.path().filename().string();
+      if (!std::regex_match(name, m, pattern)) continue;
+      const long pid = std::stol(m[1].str());
+      if (pid != static_cast<long>(::getpid()) && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH)
+        stale.push_back(e.path());
+    }
+    for (const fs::path& p : stale) fs::remove_all(p, ec);
+  }
+
   // What --obj writes into frames/: frame_NNNN.obj and .mtl, carved_NNNN.png, paper.png.
   static bool is_frame_output(const std::string& name) {
     static const std::regex pattern(R"((frame_[0-9]{4,}\.(obj|mtl))|(carved_[0-9]{4,}\.png)|(paper\.png))");
@@ -209,6 +259,37 @@ std::string plural(int64_t n, const char* word) {
   return std::to_string(n) + " " + word + (n == 1 ? "" : "s");
 }
 
+std::string gigabytes(double bytes) {
+  char buf[32];
+  if (bytes >= 1e12) std::snprintf(buf, sizeof buf, "%.1f TB", bytes / 1e12);
+  else std::snprintf(buf, sizeof buf, "%.3g GB", bytes / 1e9);
+  return buf;
+}
+
+// A batch runs up to --threads sheets at once: their estimated memory (the mesh may have 20% more
+// triangles than asked) must fit the machine, which a sheet alone at the scenario cap does.
+void check_memory_for_batch(int32_t at_once, int32_t triangles) {
+  const double physical = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGE_SIZE));
+  const double need = at_once * pt::estimated_sheet_bytes(static_cast<int64_t>(triangles) * 6 / 5);
+  if (!(physical > 0) || need <= physical) return;
+  throw UsageError("--threads: " + plural(at_once, "sheet") + " of " + plural(triangles, "triangle") +
+                   " at once would take about " + gigabytes(need) + " of memory, the machine has " +
+                   gigabytes(physical) + " (fewer --threads or triangles)");
+}
+
+// --obj writes every frame: refused before the run when the estimate does not fit the free space of the
+// disk that will hold `dir` (19 GB in 10 minutes of a small sheet's frames filled disks unasked).
+void check_space_for_obj(const fs::path& dir, double estimate, int32_t frames, int32_t triangles) {
+  std::error_code ec;
+  fs::path existing = fs::absolute(dir, ec);
+  while (!ec && !fs::exists(existing, ec) && existing.has_relative_path()) existing = existing.parent_path();
+  const fs::space_info space = fs::space(existing, ec);
+  if (ec || static_cast<double>(space.available) >= estimate) return;
+  throw UsageError("--obj: " + plural(frames, "textured frame") + " of " + plural(triangles, "triangle") +
+                   " need about " + gigabytes(estimate) + " on disk, but " + existing.string() + " has " +
+                   gigabytes(static_cast<double>(space.available)) + " free (fewer --frames, or no --obj)");
+}
+
 // --out "" given on the command line: refused rather than read as "the default".
 void check_out_given(bool given, const std::string& out) {
   if (given && out.empty()) throw UsageError("--out: empty directory name (omit --out for the default)");
@@ -222,7 +303,14 @@ int run_command(const RunOptions& opt) {
 
   pt::EngineOptions engine;
   engine.threads = opt.threads;
+  g_stop_signal = 0;
+  std::signal(SIGINT, on_stop_signal);
+  std::signal(SIGTERM, on_stop_signal);
   pt::Simulation sim(scenario, engine);  // meshing problems surface here, before anything is written
+  if (opt.obj)
+    check_space_for_obj(out.path(), pt::estimated_obj_bytes(sim, scenario.sim.frames), scenario.sim.frames,
+                        sim.sheet().tris.size());
+  throw_if_interrupted(0);
 
   out.create();
   // A result left by an earlier run must not pass for this run's if this one fails.
@@ -240,6 +328,7 @@ int run_command(const RunOptions& opt) {
     Progress progress(scenario.sim.frames);
     for (int32_t f = 0; f < scenario.sim.frames; ++f) {
       sim.step();
+      if (!sim.stop_reason().empty()) break;  // far from the origin: result.json says why
       if (opt.obj) {
         // Textured frames (OBJ + MTL, paper.png once, the carved atlas when carving changed): carve this
         // frame's segments now (the carving node would do it beside the next frame's physics; the result
@@ -247,9 +336,15 @@ int run_command(const RunOptions& opt) {
         sim.flush();
         char stem[32];
         std::snprintf(stem, sizeof stem, "frame_%04d", sim.frame());
-        obj_writer->write(sim, stem);
+        try {
+          obj_writer->write(sim, stem);
+        } catch (const std::exception& e) {
+          throw OutputError("--obj: frame " + std::to_string(sim.frame()) + ": " + e.what() +
+                            "; the run stopped, its partial frames removed");
+        }
       }
       progress.update(f + 1);
+      throw_if_interrupted(sim.frame());
     }
   }
   sim.flush();
@@ -368,6 +463,8 @@ Failure describe_current_exception(const std::string& scenario_file) {
     return {kExitInput, scenario_file + ": " + e.what()};
   } catch (const UsageError& e) {
     return {kExitInput, e.what()};
+  } catch (const OutputError& e) {
+    return {kExitInternal, e.what()};
   } catch (const std::exception& e) {
     return {kExitInternal, std::string("internal error: ") + e.what()};
   } catch (...) {
@@ -390,11 +487,21 @@ int batch_command_on_ranks(const BatchCli& cli, const pt::BatchRanks& ranks) {
     base = pt::load_scenario(cli.scenario, cli.settings);
     options = batch_options(cli);
     pt::check_batch_threads(options);
+    int32_t largest = 0;
     for (int32_t i = ranks.rank; i < options.sheets && key == pt::kNoFailure; i += ranks.size) {
       try {
         pt::validate_batch_sheet(*base, options, i);
+        largest = std::max(largest, pt::batch_sheet_scenario(*base, options, i).triangles);
       } catch (...) {
         key = i;
+        failure = describe_current_exception(cli.scenario);
+      }
+    }
+    if (key == pt::kNoFailure) {
+      try {
+        check_memory_for_batch(std::min(options.sheets, options.threads), largest);  // this rank's machine
+      } catch (...) {
+        key = options.sheets;
         failure = describe_current_exception(cli.scenario);
       }
     }
@@ -445,7 +552,12 @@ int batch_command(const BatchCli& cli, const pt::BatchRanks& ranks) {
   const pt::Scenario base = pt::load_scenario(cli.scenario, cli.settings);
   const pt::BatchOptions options = batch_options(cli);
   // Every sheet's variation is checked before any runs, so a bad --vary range fails fast with exit 2.
-  for (int32_t i = 0; i < options.sheets; ++i) pt::validate_batch_sheet(base, options, i);
+  int32_t largest = 0;
+  for (int32_t i = 0; i < options.sheets; ++i) {
+    pt::validate_batch_sheet(base, options, i);
+    largest = std::max(largest, pt::batch_sheet_scenario(base, options, i).triangles);
+  }
+  check_memory_for_batch(std::min(options.sheets, options.threads), largest);
   OutputDir out(batch_out_path(cli, base));
   out.create();  // before the sheets run: a bad --out fails fast
 
@@ -526,6 +638,12 @@ int main(int argc, char** argv) {
     }
     print_error("no command (run, check or batch)");
     return kExitInput;
+  } catch (const Interrupted& e) {
+    // The output is cleaned up (run_command has unwound); end as the signal would have.
+    print_error(e.what());
+    std::signal(e.signal, SIG_DFL);
+    std::raise(e.signal);
+    return 128 + e.signal;
   } catch (...) {
     const std::string& file = *run_cmd ? run.scenario : *check_cmd ? check_path : batch.scenario;
     const Failure f = describe_current_exception(file);

@@ -484,6 +484,35 @@ bool is_safe_name(const std::string& name) {
   return true;
 }
 
+std::string fmt_bytes(double bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, bytes >= 1e9 ? "%.1f GB" : "%.0f MB", bytes >= 1e9 ? bytes / 1e9 : bytes / 1e6);
+  return buf;
+}
+
+// How far from the origin the scenario can take the sheet (m, largest coordinate): carried by the keys (a
+// hand's rotation swings a finger about the hand's centroid, at most twice the farthest point away from
+// it, and its translation adds) and falling freely for the whole run, ½ |g| T² (damping ignored: an upper
+// bound).
+struct SheetReach {
+  double carried = 0;
+  double fall = 0;
+};
+
+SheetReach sheet_reach(const Scenario& s, const std::vector<Vec2>& outline) {
+  double farthest = 0, translate = 0;
+  for (const Vec2& p : outline) farthest = std::max(farthest, p.cwiseAbs().maxCoeff());
+  for (const FingerSpec& f : s.fingers)
+    for (const FingerKey& k : f.keys) farthest = std::max(farthest, k.position.cwiseAbs().maxCoeff());
+  for (const HandSpec& h : s.hands)
+    for (const HandKey& k : h.keys) translate = std::max(translate, k.translate.cwiseAbs().maxCoeff());
+  SheetReach r;
+  r.carried = 3 * farthest + translate;
+  const double duration = s.sim.frames / s.sim.fps;
+  r.fall = 0.5 * s.sim.gravity.norm() * duration * duration;
+  return r;
+}
+
 void validate_key_times(const std::string& file, const std::string& keys_path, const std::vector<double>& times) {
   for (size_t k = 0; k < times.size(); ++k) {
     const std::string p = child(child(keys_path, k), size_t(0));
@@ -516,6 +545,23 @@ void validate_scenario(const Scenario& s) {
     check_vec(file, child(outline_path, i), outline[i].data(), 2, kMaxCoordinate);
   if (const std::string problem = outline_problem(outline); !problem.empty()) fail(file, outline_path, problem);
   check_int(file, "sheet.triangles", s.triangles, kMinTriangles, kMaxTriangles);
+  // What `run` would refuse while meshing, where a lower bound on any quality mesh already shows it (a
+  // 0.3 m x 1e-7 m strip). Fingers count as points so that check never refuses what run meshes.
+  {
+    const double min_angle = MeshRequest{}.min_angle_deg;
+    const double needed = min_quality_triangles(outline, min_angle);
+    const int64_t limit = max_mesh_triangles(s.triangles, static_cast<int64_t>(outline.size() + s.fingers.size()));
+    if (needed > static_cast<double>(limit))
+      fail(file, outline_path,
+           "features far finer than a mesh of " + std::to_string(s.triangles) + " triangles (a narrow strip or a short "
+           "edge): any mesh of it with angles of at least " + fmt(min_angle) + " deg has " + fmt(needed) +
+           " triangles or more (tan(angle) perimeter^2 / 36 area), above " + std::to_string(limit));
+  }
+  if (s.triangles > kMaxSheetTriangles)
+    fail(file, "sheet.triangles",
+         std::to_string(s.triangles) + " triangles would take about " + fmt_bytes(estimated_sheet_bytes(s.triangles)) +
+             " of memory; at most " + std::to_string(kMaxSheetTriangles) + " (about " +
+             fmt_bytes(estimated_sheet_bytes(kMaxSheetTriangles)) + ") are accepted (docs/memory.md)");
   check_finite(file, "sheet.mesh_rotation_deg", s.mesh_rotation_deg);
 
   // Material.
@@ -638,6 +684,26 @@ void validate_scenario(const Scenario& s) {
     }
     validate_key_times(file, child(p, "keys"), times);
   }
+
+  // Far from the origin doubles do not resolve the sheet's strains (engine/scenario.hpp).
+  const SheetReach reach = sheet_reach(s, outline);
+  if (reach.carried + reach.fall > kMaxSheetPosition) {
+    const double room = std::max(0.0, kMaxSheetPosition - reach.carried);
+    const double g = s.sim.gravity.norm();
+    const double max_frames = std::floor(std::sqrt(2 * room / g) * s.sim.fps);
+    fail(file, "sim.frames",
+         std::to_string(s.sim.frames) + " frames at " + fmt(s.sim.fps) + " frames/s under a gravity of " + fmt(g) +
+             " m/s^2 let a released sheet fall " + fmt(reach.fall) + " m, beyond the +-" + fmt(kMaxSheetPosition) +
+             " m within which positions are resolved; at most " + fmt(max_frames) + " frames");
+  }
+}
+
+double estimated_sheet_bytes(int64_t triangles) {
+  // Peak RSS of one frame of scenarios/demo.json (/usr/bin/time -v, 2 threads): 299 MB at 49 860
+  // triangles, 621 MB at 99 714, 1 319 MB at 199 531, within 2% of this; the solver's factor fills like
+  // n log n. 2 000 000 triangles: 15.7 GB.
+  const double n = static_cast<double>(std::max<int64_t>(triangles, 2));
+  return 10e6 + 375.0 * n * std::log2(n);
 }
 
 Scenario parse_scenario(const std::string& json_text, const std::string& path_for_messages) {

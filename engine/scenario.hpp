@@ -105,4 +105,18 @@ Scenario parse_scenario(const std::string& json_text, const std::string& path_fo
 // built in code.
 void validate_scenario(const Scenario& s);
 
+// The most triangles a scenario may ask for: the largest sheet's estimated peak memory (below), for the
+// mesh's +20% and two sheets at once (a batch's default threads), stays well inside a 24 GB machine.
+inline constexpr int32_t kMaxSheetTriangles = 500'000;
+// Estimated peak resident bytes of a simulation of a sheet of `triangles` triangles (docs/memory.md: peak
+// RSS of one frame of scenarios/demo.json at 50 000 to 200 000 triangles; the factor's fill grows like
+// n log n).
+double estimated_sheet_bytes(int64_t triangles);
+
+// Every position of the sheet stays within ±kMaxSheetPosition m on each axis (docs/scenario-format.md):
+// beyond it doubles resolve the sheet's strains too coarsely (at 4.5e16 m a free fall tore a sheet into
+// 139 pieces). Validation refuses scenarios whose keys or free fall can carry the sheet beyond it, and a
+// simulation stops when a vertex leaves it anyway (Simulation::stop_reason).
+inline constexpr double kMaxSheetPosition = 1e6;
+
 }  // namespace pt

@@ -133,6 +133,7 @@ struct Simulation::Impl {
   }
 
   int32_t frame = 0;
+  std::string stop_reason;  // set when a vertex left ±kMaxSheetPosition: no further frames run
   std::vector<Vec3> targets_begin;  // finger targets at the start of the frame
   int32_t resume_substep = -1;     // the substep a frame stopped for tearing resumes at (stops_for_tearing)
   double physics_alpha = 1.0;      // how far through the frame's finger motion the physics is (1 unless stopped)
@@ -574,6 +575,7 @@ struct Simulation::Impl {
   }
 
   void step() {
+    if (!stop_reason.empty()) return;
     profile = FrameProfile{};
     const auto t0 = Clock::now();
     arena.execute([&] {
@@ -589,6 +591,21 @@ struct Simulation::Impl {
     timings.add(profile);
     stats.push_back(FrameStats{sheet.tris.size(), region_summary.regions, region_summary.junctions,
                                static_cast<int32_t>(candidates.size())});
+    check_position_bound();
+  }
+
+  // Far from the origin doubles no longer resolve the sheet's strains (engine/scenario.hpp): the run stops
+  // rather than tear the sheet apart by rounding. A NaN is left to the result's finite-number check.
+  void check_position_bound() {
+    for (int32_t v = 0; v < sheet.verts.size(); ++v) {
+      const Vec3& x = sheet.verts.x[v];
+      if (!(x.cwiseAbs().maxCoeff() > kMaxSheetPosition)) continue;
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "vertex %d left the +-%g m bound of positions at frame %d (at (%.3g, %.3g, %.3g) m)",
+                    v, kMaxSheetPosition, frame, x.x(), x.y(), x.z());
+      stop_reason = buf;
+      return;
+    }
   }
 };
 
@@ -614,6 +631,7 @@ void Simulation::flush() {
   impl_->arena.execute([&] { carve_new_segments(impl_->fiber, impl_->detail, impl_->sheet.tears, impl_->carve_state); });
 }
 int32_t Simulation::frame() const { return impl_->frame; }
+const std::string& Simulation::stop_reason() const { return impl_->stop_reason; }
 double Simulation::time() const { return impl_->time_at(impl_->frame); }
 const Sheet& Simulation::sheet() const { return impl_->sheet; }
 Sheet& Simulation::mutable_sheet() { return impl_->sheet; }

@@ -83,6 +83,9 @@ class Simulation {
   // runs beside the physics). Call before reading tears' `detail` or writing results.
   void flush();
   int32_t frame() const;    // frames done
+  // Why the simulation stopped before its frames ran out, "" while it runs: a vertex left ±kMaxSheetPosition
+  // m (engine/scenario.hpp). step() does nothing once it is set; the result's status is "error".
+  const std::string& stop_reason() const;
   double time() const;      // s
 
   const Sheet& sheet() const;

@@ -314,8 +314,10 @@ std::vector<Point> steiner_lattice(const Problem& pb, const MeshRequest& rq, dou
   return out;
 }
 
-// One constrained Delaunay refinement at edge-length bound `size`; returns the in-domain triangle count.
-long refine(const Problem& pb, const MeshRequest& rq, double aspect_bound, double size, CDT& cdt) {
+// One constrained Delaunay refinement at edge-length bound `size`; returns the in-domain triangle count, or
+// −1 as soon as the triangulation holds more than `max_vertices` vertices.
+long refine(const Problem& pb, const MeshRequest& rq, double aspect_bound, double size, int64_t max_vertices,
+            CDT& cdt) {
   std::vector<CDT::Vertex_handle> ring;
   ring.reserve(pb.ring_size);
   for (int32_t i = 0; i < pb.ring_size; ++i) {
@@ -332,8 +334,14 @@ long refine(const Problem& pb, const MeshRequest& rq, double aspect_bound, doubl
     const std::vector<Point> sites = steiner_lattice(pb, rq, size);
     cdt.insert(sites.begin(), sites.end());  // range insertion sorts spatially: fast for many points
   }
+  if (static_cast<int64_t>(cdt.number_of_vertices()) > max_vertices) return -1;
+  // One point at a time, so that an outline with features far below the mesh size (a 0.3 m x 1e-7 m strip
+  // needs millions of triangles at any size bound) is given up at `max_vertices` before it fills memory.
+  // The same refinement as refine_mesh(): the same queues processed in the same order.
   Mesher mesher(cdt, Criteria(aspect_bound, size));
-  mesher.refine_mesh();
+  mesher.init();
+  while (mesher.step_by_step_refine_mesh())
+    if (static_cast<int64_t>(cdt.number_of_vertices()) > max_vertices) return -1;
   long count = 0;
   for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) count += f->is_in_domain() ? 1 : 0;
   return count;
@@ -471,6 +479,28 @@ bool point_on_sheet(const std::vector<Vec2>& outline, const Vec2& p) {
   return point_in_polygon(outline, p, outline_snap_distance(outline));
 }
 
+int64_t max_mesh_triangles(int64_t target, int64_t points) {
+  return std::max<int64_t>({4 * target, 4 * points, 10'000});
+}
+
+double min_quality_triangles(const std::vector<Vec2>& outline, double min_angle_deg) {
+  const size_t n = outline.size();
+  if (n < 3) return 0;
+  double perimeter = 0;
+  for (size_t i = 0; i < n; ++i) perimeter += (outline[(i + 1) % n] - outline[i]).norm();
+  const double area = std::abs(signed_area(outline));
+  if (!(area > 0) || !(min_angle_deg > 0)) return 0;
+  return std::tan(min_angle_deg * std::numbers::pi / 180) * perimeter * perimeter / (36 * area);
+}
+
+namespace {
+std::string too_fine_message(int64_t target, double min_angle_deg, int64_t limit) {
+  return "outline has features far finer than a mesh of " + std::to_string(target) +
+         " triangles (a narrow strip or a short edge): meshing it at " + std::to_string(int(min_angle_deg)) +
+         " deg needs more than " + std::to_string(limit) + " triangles";
+}
+}  // namespace
+
 void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vector<Tri>& tri,
                   std::vector<int32_t>& required_vertex) {
   const std::string problem = outline_problem(request.outline);
@@ -492,6 +522,12 @@ void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vect
   const double aspect_bound = sin_a * sin_a;
 
   const double target = request.target_triangles;
+  // The most triangles a mesh of this request may have: a few times what was asked, or what the outline's
+  // own vertices need, never below a small sheet's worth. A triangulated polygon has T = 2 V_inside +
+  // V_boundary − 2 ≥ V − 2 triangles, so refinement is given up past max_triangles + 2 vertices.
+  const long max_triangles = max_mesh_triangles(request.target_triangles, int64_t(prob.exact.size()));
+  if (min_quality_triangles(request.outline, request.min_angle_deg) > double(max_triangles))
+    throw GeometryError(too_fine_message(request.target_triangles, request.min_angle_deg, max_triangles));
   // Delaunay refinement with edge bound S yields triangles of about 0.2 S² on average (calibrated on
   // rectangles); the loop below corrects for the boundary and the required points.
   double size = std::min(std::sqrt(prob.area / (0.2 * target)), prob.diameter);
@@ -500,8 +536,12 @@ void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vect
   long best_count = -1;
   for (int round = 0; round < 12; ++round) {
     auto cdt = std::make_unique<CDT>();
-    const long count = refine(prob, request, aspect_bound, size, *cdt);
-    if (best_count < 0 || std::abs(count - target) < std::abs(best_count - target)) {
+    long count = refine(prob, request, aspect_bound, size, max_triangles + 2, *cdt);
+    const bool over = count < 0 || count > max_triangles;
+    if (over) {
+      cdt.reset();
+      count = 2 * max_triangles;  // at least: steer the size bound coarser
+    } else if (best_count < 0 || std::abs(count - target) < std::abs(best_count - target)) {
       best_count = count;
       best = std::move(cdt);
     }
@@ -519,6 +559,7 @@ void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vect
     if (too_coarse > 0 && too_fine > 0 && too_coarse / too_fine < 1 + 1e-6) break;  // a step in count
     size = std::min(next, prob.diameter);
   }
+  if (!best) throw GeometryError(too_fine_message(request.target_triangles, request.min_angle_deg, max_triangles));
   extract(prob, *best, rest, tri, required_vertex);
 }
 

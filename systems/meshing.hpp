@@ -28,9 +28,21 @@ struct MeshRequest {
 
 // Outputs: `rest` (pattern positions), `tri` (counter-clockwise), `required_vertex[i]` the vertex id
 // placed at required_points[i]. Throws GeometryError on a non-simple, clockwise or degenerate outline,
-// a required point outside it, or a target outside [2, 2'000'000].
+// a required point outside it, a target outside [2, 2'000'000], or an outline whose features are so far
+// below the mesh size that a quality mesh needs more than max(4 × target, 4 × its points, 10 000)
+// triangles (given up at that size, before it fills memory).
 void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vector<Tri>& tri,
                   std::vector<int32_t>& required_vertex);
+
+// The most triangles mesh_outline makes for a request of `target` triangles over `points` input points
+// (outline vertices and required points): max(4 × target, 4 × points, 10 000).
+int64_t max_mesh_triangles(int64_t target, int64_t points);
+
+// A lower bound on the triangle count of any triangulation of the outline whose angles are all at least
+// min_angle_deg: tan(min angle) P² / (36 A) for perimeter P and area A (each boundary edge e lies in a
+// triangle of area ≥ tan(min angle) |e|² / 4, a triangle holds at most three of them, and Σ|e|² ≥ P² / n).
+// A 0.3 m × 1e-7 m strip at 20 deg: 121 000.
+double min_quality_triangles(const std::vector<Vec2>& outline, double min_angle_deg);
 
 // A4, A5, A3, A6 as a rectangle at the origin (width = short side along u). Throws GeometryError on an
 // unknown name.

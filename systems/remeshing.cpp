@@ -28,6 +28,10 @@ namespace {
 // An edge is never split closer to one of its ends than this fraction of its length (a sliver whose
 // stiffness the implicit solve cannot factor).
 constexpr double kEdgeEnd = 0.01;
+// A point this close to a vertex or an edge of its triangle (a fraction of the triangle's mean edge) is on
+// it whatever the snap fraction: inserting it into the triangle would leave a triangle of (nearly) zero
+// area. Snap fraction 0 otherwise cut a zero-area triangle (issue 27, item 12).
+constexpr double kOnFeature = 1e-6;
 
 double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 
@@ -427,7 +431,7 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
     const Vec2 A = C.r(a), B = C.r(b);
     const double h = ((A - pc).norm() + (B - pc).norm() + (B - A).norm()) / 3.0;
     const double r_vertex = params.snap_fraction * h;  // snap radius to a vertex
-    const double r_edge = 0.2 * r_vertex;              // "very close" to an edge
+    const double r_edge = std::max(0.2 * r_vertex, kOnFeature * h);  // "very close" to an edge
     if (cur == p && dn < 1e-6 * h) break;              // degenerate segment
 
     // A vertex may be snapped to unless it is already on the path, or reaching it would run along the
@@ -446,7 +450,7 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
       int32_t snap_v = -1;
       double best = std::numeric_limits<double>::infinity();
       for (int32_t u : {a, b}) {
-        const double radius = params.snap_fraction * std::min(ab_len, u == a ? l_ca : l_cb);
+        const double radius = std::max(params.snap_fraction * std::min(ab_len, u == a ? l_ca : l_cb), kOnFeature * h);
         const double dist = (C.r(u) - next).norm();
         if (snappable(u) && dist < radius && dist < best) {
           best = dist;
@@ -459,7 +463,7 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
         break;
       }
       // The walk already stands on a vertex close to next.
-      if (cur != p && dn < params.snap_fraction * std::min(l_ca, l_cb)) break;
+      if (cur != p && dn < std::max(params.snap_fraction * std::min(l_ca, l_cb), kOnFeature * h)) break;
       // Nearest edge of the triangle whose interior faces next (edges of the start vertex's open fan
       // excluded: the tear cannot run along the boundary).
       const std::array<std::pair<int32_t, int32_t>, 3> edges{{{cur, a}, {a, b}, {b, cur}}};

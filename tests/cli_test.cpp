@@ -6,10 +6,14 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
+#include <csignal>
+#include <thread>
 #include <cstdio>
 #include <cmath>
 #include <array>
@@ -77,8 +81,15 @@ class Cli : public ::testing::Test {
 
   Result run(const std::vector<std::string>& args) {
     // timeout(1): a hang becomes a failure (status 124) instead of stalling the suite.
-    std::string cmd = "cd " + quote(dir_.string()) + " && timeout 120 " + quote(kBinary);
-    for (const std::string& a : args) cmd += " " + quote(a);
+    // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) on "cd " + std::string&& once inlined.
+    std::string cmd = "cd ";
+    cmd += quote(dir_.string());
+    cmd += " && timeout 120 ";
+    cmd += quote(kBinary);
+    for (const std::string& a : args) {
+      cmd += " ";
+      cmd += quote(a);
+    }
     cmd += " > stdout.txt 2> stderr.txt < /dev/null";
     const int raw = std::system(cmd.c_str());
     Result r;
@@ -578,6 +589,106 @@ TEST_F(Cli, ImplausibleConstantsAreExit2) {
     EXPECT_FALSE(fs::exists(dir_ / "o")) << setting;
     expect_input_error(run({"check", g.string(), "--set", setting}), "check " + setting);
   }
+}
+
+// Issue 27, item 8: --obj wrote 52 kB a frame until the disk was full. A run whose estimated frames do not
+// fit the free space is refused before it starts: exit 2 naming --obj and the estimate, nothing written.
+TEST_F(Cli, ObjThatCannotFitOnTheDiskIsRefused) {
+  if (static_cast<double>(fs::space(dir_).available) > 1e13) GTEST_SKIP() << "more than 10 TB free here";
+  // 20 000 triangles: about 1.6 MB a frame, 16 TB for 10 million frames.
+  const Result r = run({"run", good().string(), "--out", "o", "--obj", "--frames", "10000000", "--set",
+                        "sheet.triangles=20000", "--set", "sim.gravity=[0, 0, 0]"});
+  expect_input_error(r, "--obj beyond the free space");
+  EXPECT_EQ(r.err.rfind("papertear: --obj: 10000000 textured frames of ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find(" TB on disk, but "), std::string::npos) << r.err;  // 16 TB
+  EXPECT_TRUE(r.out.empty()) << r.out;
+  EXPECT_FALSE(fs::exists(dir_ / "o"));
+}
+
+// Issue 27, item 8: SIGINT or SIGTERM during an --obj run removes its hidden partial frames and the output
+// directory it created, keeps a directory that was there, and the process still ends by the signal
+// (before: .frames.partial.PID and the new directory stayed).
+TEST_F(Cli, InterruptedObjRunLeavesNothingBehind) {
+  const fs::path g = good();
+  fs::create_directories(dir_ / "kept");
+  write_file(dir_ / "kept" / "mine.txt", "mine");
+  for (const auto& [sig, out] : {std::pair<int, std::string>{SIGINT, "o"}, std::pair<int, std::string>{SIGTERM, "kept"}}) {
+    const fs::path err_path = dir_ / "stderr.txt";
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      const int err = ::open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      const int null = ::open("/dev/null", O_WRONLY);
+      if (err < 0 || null < 0 || ::dup2(err, 2) < 0 || ::dup2(null, 1) < 0 || ::chdir(dir_.c_str()) != 0) ::_exit(127);
+      ::execl(kBinary.c_str(), kBinary.c_str(), "run", g.c_str(), "--out", out.c_str(), "--obj", "--frames", "10000",
+              "--threads", "1", static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    const fs::path partial = dir_ / out / (".frames.partial." + std::to_string(pid));
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (!fs::exists(partial / "frame_0002.obj") && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    EXPECT_TRUE(fs::exists(partial / "frame_0002.obj")) << "no frame written within 60 s";
+    ::kill(pid, sig);
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == sig) << "status " << status;
+    const std::string err = read_file(err_path);
+    EXPECT_TRUE(one_line(err)) << err;
+    EXPECT_NE(err.find(sig == SIGINT ? ": SIGINT at frame " : ": SIGTERM at frame "), std::string::npos) << err;
+    EXPECT_FALSE(fs::exists(partial)) << partial;
+    fs::remove(err_path);
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "o"));
+  EXPECT_EQ(listing(), (std::vector<std::string>{"good.json", "kept", "kept/mine.txt"}));
+}
+
+// Issue 27, item 8: a run killed outright cannot clean up; the next --obj run into the directory removes
+// the hidden frames of processes that no longer exist (and not those of a live one).
+TEST_F(Cli, ObjRunRemovesTheHiddenFramesOfADeadRun) {
+  const fs::path dead = dir_ / "o" / ".frames.partial.999999999", live = dir_ / "o" / ".frames.partial.1";
+  fs::create_directories(dead);
+  fs::create_directories(live);
+  write_file(dead / "frame_0001.obj", "a killed run's");
+  const Result r = run({"run", good().string(), "--out", "o", "--obj", "--frames", "1", "--threads", "1"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_FALSE(fs::exists(dead));
+  EXPECT_TRUE(fs::exists(live));
+}
+
+// Issue 27, item 5: an outline far thinner than the mesh size (0.3 m x 1e-7 m at 200 triangles) passed
+// check, then meshed 4.19 M triangles and took 14 GB; now check and run refuse it: exit 2, one line
+// naming the file and sheet.outline.
+TEST_F(Cli, OutlineFarThinnerThanTheMeshIsExit2) {
+  std::string text = kGood;
+  text.replace(text.find(R"("preset": "A6")"), 14, R"("outline": [[0, 0], [0.3, 0], [0.3, 1e-7], [0, 1e-7]])");
+  text.replace(text.find("[0.02, 0.14]"), 12, "[0.1, 5e-8]");
+  text.replace(text.find("[0.085, 0.14]"), 13, "[0.2, 5e-8]");
+  write_file(dir_ / "thin.json", text);
+  for (const std::vector<std::string>& args : {std::vector<std::string>{"check", "thin.json"},
+                                                std::vector<std::string>{"run", "thin.json", "--out", "o"}}) {
+    const Result r = run(args);
+    expect_input_error(r, "thin outline, " + args[0]);
+    EXPECT_NE(r.err.find("thin.json: sheet.outline: features far finer than a mesh of 60 triangles"),
+              std::string::npos)
+        << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "o"));
+}
+
+// Issue 27, item 6: a batch runs --threads sheets at once; sheets at the triangle cap that would not fit
+// the machine's memory together are refused before any runs: exit 2 naming --threads and the estimate.
+TEST_F(Cli, BatchBeyondTheMachinesMemoryIsExit2) {
+  const double physical = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGE_SIZE));
+  if (physical > 2e11) GTEST_SKIP() << "more than 200 GB of memory here";
+  // 64 sheets of 500 000 triangles at once: about 277 GB.
+  const Result r = run({"batch", good().string(), "--sheets", "64", "--threads", "64", "--set", "sheet.triangles=500000",
+                        "--out", "b"});
+  expect_input_error(r, "batch beyond memory");
+  EXPECT_EQ(r.err.rfind("papertear: --threads: 64 sheets of 500000 triangles at once would take about ", 0), 0u)
+      << r.err;
+  EXPECT_TRUE(r.out.empty()) << r.out;
+  EXPECT_FALSE(fs::exists(dir_ / "b"));
 }
 
 // check and run agree on a finger just outside the outline, and both name its JSON path (before: check

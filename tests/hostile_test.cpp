@@ -510,6 +510,31 @@ TEST(Hostile, SolverRefusingEverySubstepIsAnError) {
   EXPECT_FALSE(doc.contains("error"));
 }
 
+// Issue 27, item 14: far from the origin rounding tore a falling sheet apart. A vertex beyond
+// ±kMaxSheetPosition stops the simulation: no further frame runs, and the result is an error that says
+// which vertex left, when and where.
+TEST(Hostile, SheetFlungBeyondThePositionBoundStops) {
+  const char* let_go = R"([{"name": "a", "at": [0.02, 0.02], "keys": [[0, [0.02, 0.02, 0]]], "release": 0.001}])";
+  Simulation sim(parse_scenario(scene("flung", let_go, 5), "flung.json"));
+  sim.step();
+  EXPECT_EQ(sim.stop_reason(), "");
+  for (Vec3& v : sim.mutable_sheet().verts.v) v = Vec3(0, 0, 1e8);  // 3.3e6 m in a frame of 1/30 s
+  sim.step();
+  ASSERT_EQ(sim.frame(), 2);
+  const std::string reason = sim.stop_reason();
+  EXPECT_NE(reason.find(" left the +-1e+06 m bound of positions at frame 2 (at ("), std::string::npos) << reason;
+  const std::string hash = sim.state_hash();
+  sim.step();
+  EXPECT_EQ(sim.frame(), 2);
+  EXPECT_EQ(sim.state_hash(), hash);
+  EXPECT_EQ(solver_failure(sim), reason);
+  nlohmann::ordered_json doc;
+  std::string error;
+  EXPECT_FALSE(build_result_json(sim, doc, &error));
+  EXPECT_EQ(doc["status"], "error");
+  EXPECT_EQ(error, reason);
+}
+
 // Issue 27: the interactive API refuses a finger that does not exist and a target that is not a place
 // (before: NaN, inf and 1e300 were keyed; 999 threw "vector::_M_range_check", −1 showed 18446744073709551615).
 TEST(Hostile, MoveFingerRefusesBadFingersAndTargets) {

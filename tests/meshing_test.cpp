@@ -283,5 +283,39 @@ TEST(Meshing, TinyTargetGivesTwoTriangles) {
   EXPECT_EQ(m.tri.size(), 2u);
 }
 
+// Issue 27, item 5: a 0.3 m x 1e-7 m strip asked for 200 triangles meshed 4.19 M of them at a 20 deg bound
+// (14 GB once simulated). The mesher now gives up at a few times the request, before it fills memory.
+TEST(Meshing, OutlineFarThinnerThanTheMeshIsRefused) {
+  MeshRequest rq;
+  rq.outline = poly({{0, 0}, {0.3, 0}, {0.3, 1e-7}, {0, 1e-7}});
+  rq.target_triangles = 200;
+  std::string error;
+  try {
+    run(rq);
+  } catch (const GeometryError& e) {
+    error = e.what();
+  }
+  EXPECT_NE(error.find("features far finer than a mesh of 200 triangles"), std::string::npos) << error;
+  EXPECT_NE(error.find("needs more than 10000 triangles"), std::string::npos) << error;
+  // That strip is refused by the lower bound on any 20 deg mesh (121 000 triangles); a 0.3 m x 1e-5 m
+  // strip passes the bound (1 213) and is given up while refining.
+  EXPECT_NEAR(min_quality_triangles(rq.outline, 20), 121'000, 1'000);
+  rq.outline = poly({{0, 0}, {0.3, 0}, {0.3, 1e-5}, {0, 1e-5}});
+  EXPECT_LT(min_quality_triangles(rq.outline, 20), 10'000);
+  error.clear();
+  try {
+    run(rq);
+  } catch (const GeometryError& e) {
+    error = e.what();
+  }
+  EXPECT_NE(error.find("needs more than 10000 triangles"), std::string::npos) << error;
+  // A strip the mesh can follow is meshed as before: 0.3 m x 1 cm.
+  rq.outline = poly({{0, 0}, {0.3, 0}, {0.3, 0.01}, {0, 0.01}});
+  EXPECT_LT(min_quality_triangles(rq.outline, 20), 200);
+  const Mesh m = run(rq);
+  EXPECT_GT(m.tri.size(), 0u);
+  EXPECT_LE(m.tri.size(), 10'000u);
+}
+
 }  // namespace
 }  // namespace pt

@@ -3,6 +3,7 @@
 // every cut.
 #include "systems/remeshing.hpp"
 #include "systems/topology.hpp"
+#include "test_meshes.hpp"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -181,6 +182,37 @@ TEST(Remeshing, EndExactlyOnAnEdge) {
   int tip_triangles = 0;
   for (const Tri& t : s.tris.tri) tip_triangles += std::count(t.begin(), t.end(), res.tip_vertex);
   EXPECT_EQ(tip_triangles, 4);
+}
+
+// Issue 27, item 12 (a fuzz finding with tearing.snap 0): a segment ending exactly on an edge was
+// inserted into its triangle, which left a triangle of zero area. With no snapping asked for, a point on
+// an edge or at a vertex is still on it.
+TEST(Remeshing, NoSnapStillPutsAnEndOnAnEdgeOnTheEdge) {
+  RemeshParams no_snap;
+  no_snap.snap_fraction = 0;
+  {
+    // The finding: a thin grid (one column of 14 cells), 4.3e-5 m inwards from vertex 11 on the right
+    // edge at angle pi, i.e. along the interior edge 11-10: the end lies on that edge, 8e-5 of its
+    // length from 11, so the cut stops where it stands (no edge split that close to an end).
+    Sheet s = test::grid_sheet(0.51940147298342976, 0.35580883065316182, 1, 14, 0.39874368353850626, 3032845914u);
+    const double area = total_rest_area(s.tris);
+    ASSERT_EQ(check_mesh_invariants(s, area), "");
+    const Vec2 next = s.verts.rest[11] + 4.3e-5 * Vec2(std::cos(std::numbers::pi), std::sin(std::numbers::pi));
+    const CutResult res = cut_tear_segment(11, next, Vec2::Zero(), 0, no_snap, s);
+    EXPECT_EQ(check_mesh_invariants(s, area), "");
+    EXPECT_FALSE(res.cut);
+  }
+  {
+    // The end in the middle of the horizontal edge (4,5)-(5,5) goes onto the edge, as with snapping.
+    Sheet s = make_grid(8, 8, 0.0, 1);
+    const double area = total_rest_area(s.tris);
+    const CutResult res = cut_tear_segment(notch_vertex(8, 8), Vec2(0.1125, 0.125), Vec2::Zero(), 0, no_snap, s);
+    ASSERT_TRUE(res.cut);
+    expect_valid_after_cut(s, area, res, 0);
+    int tip_triangles = 0;
+    for (const Tri& t : s.tris.tri) tip_triangles += std::count(t.begin(), t.end(), res.tip_vertex);
+    EXPECT_EQ(tip_triangles, 4);
+  }
 }
 
 TEST(Remeshing, TurnKeepsPStraightRemovesP) {

@@ -515,6 +515,63 @@ TEST(BadInput, ImplausiblePhysicalConstants) {
                                            "material.density=25000", "material.bending_scale=1e4", "sim.fps=1e5"}));
 }
 
+// Issue 27, item 5: a 0.3 m x 1e-7 m strip at 200 triangles passed check and meshed 4.19 M triangles. Any
+// mesh of it at 20 deg has at least tan(20 deg) P^2 / 36 A = 121 000 triangles, so check refuses it.
+TEST(BadInput, OutlineFarThinnerThanTheMesh) {
+  const auto scene = [](const std::string& height) {
+    return R"({"sheet": {"outline": [[0, 0], [0.3, 0], [0.3, )" + height + R"(], [0, )" + height +
+           R"(]], "triangles": 200}, "fingers": [{"name": "a", "at": [0.1, 0]}]})";
+  };
+  const std::string message = error_of_text(scene("1e-7"), "thin.json");
+  EXPECT_EQ(message.rfind("thin.json: sheet.outline: features far finer than a mesh of 200 triangles", 0), 0u)
+      << message;
+  EXPECT_NE(message.find("has 121"), std::string::npos) << message;
+  EXPECT_NE(message.find("above 10000"), std::string::npos) << message;
+  EXPECT_EQ(error_of_text(scene("0.01"), "strip.json"), "no error");
+}
+
+// Issue 27, item 6: the accepted maximum of 2 000 000 triangles took more than 15 GB. The cap is set from
+// the measured memory per triangle, and the refusal says the estimate.
+TEST(BadInput, TrianglesBeyondTheMemoryCap) {
+  const std::string file = std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json";
+  const std::string message = error_of_setting(file, "sheet.triangles=2000000");
+  EXPECT_EQ(message.rfind(file + ": sheet.triangles: 2000000 triangles would take about ", 0), 0u) << message;
+  EXPECT_NE(message.find(" GB of memory; at most " + std::to_string(pt::kMaxSheetTriangles) + " (about "),
+            std::string::npos) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  EXPECT_NE(error_of_setting(file, "sheet.triangles=" + std::to_string(pt::kMaxSheetTriangles + 1)), "no error");
+  EXPECT_EQ(error_of_setting(file, "sheet.triangles=" + std::to_string(pt::kMaxSheetTriangles)), "no error");
+  // The largest sheet, at the mesher's +20% and two at once (a batch's default threads), fits in half of a
+  // 24 GB machine; and the estimate grows with the sheet.
+  EXPECT_LT(2 * pt::estimated_sheet_bytes(pt::kMaxSheetTriangles * 6 / 5), 12e9);
+  EXPECT_GT(pt::estimated_sheet_bytes(2'000'000), 15e9);
+  EXPECT_LT(pt::estimated_sheet_bytes(100'000), pt::estimated_sheet_bytes(200'000));
+}
+
+// Issue 27, item 14: a sheet falling freely for 3 000 s under 1e4 m/s² reached 4.5e16 m and tore into 139
+// pieces from rounding. A scenario whose free fall or keys can carry the sheet beyond ±kMaxSheetPosition
+// is refused, naming sim.frames and the distance.
+TEST(BadInput, SheetCarriedBeyondThePositionBound) {
+  const std::string file = std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json";
+  std::string message;
+  try {
+    pt::load_scenario(file, {"sim.fps=1", "sim.frames=3000", "sim.gravity=[0, 0, -1e4]"});
+  } catch (const pt::InputError& e) {
+    message = e.what();
+  }
+  EXPECT_EQ(message.rfind(file + ": sim.frames: 3000 frames at 1 frames/s under a gravity of 10000 m/s^2 let a "
+                                 "released sheet fall 4.5e+10 m, beyond the +-1e+06 m",
+                          0),
+            0u)
+      << message;
+  EXPECT_NE(message.find("; at most 14 frames"), std::string::npos) << message;
+  // At the bound: 14 s fall 0.98e6 m; the soak's 10 000 frames at 30 fps under 9.81 fall 0.55e6 m.
+  EXPECT_NO_THROW(pt::load_scenario(file, {"sim.fps=1", "sim.frames=14", "sim.gravity=[0, 0, -1e4]"}));
+  EXPECT_NO_THROW(pt::load_scenario(std::string(PT_SOURCE_DIR) + "/tests/soak/soak.json"));
+  // No gravity: as many frames as a file may have.
+  EXPECT_NO_THROW(pt::load_scenario(file, {"sim.frames=10000000", "sim.gravity=[0, 0, 0]"}));
+}
+
 // Issue 27: an axis whose norm overflows (or underflows) is still a direction.
 TEST(Scenario, HandAxisOfAnyFiniteSize) {
   for (const char* axis : {"[1e200, 1e200, 0]", "[1e-200, 0, 1e-200]", "[1e308, -1e308, 1e308]"}) {
