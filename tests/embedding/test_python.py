@@ -6,6 +6,7 @@ import os
 import pathlib
 import re
 import tempfile
+import threading
 import unittest
 
 import numpy as np
@@ -196,6 +197,72 @@ class Bindings(unittest.TestCase):
         sim.step()
         for f in sim.fingers:
             self.assertTrue(np.all(np.isfinite(sim.positions[f["vertex"]])), f["name"])
+
+
+class Threads(unittest.TestCase):
+    """Issue 27: one Simulation used from two threads corrupted the heap ("malloc(): invalid size", both
+    stepping) or segfaulted (one stepping, one reading). Calls are serialised by the simulation's lock."""
+
+    def run_threads(self, *targets):
+        errors = []
+
+        def guarded(target):
+            try:
+                target()
+            except BaseException as e:  # noqa: BLE001 - any exception in a thread is a failure here
+                errors.append(e)
+
+        threads = [threading.Thread(target=guarded, args=(t,)) for t in targets]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        self.assertEqual(errors, [])
+
+    def reference_hash(self, frames):
+        sim = papertear.Simulation(SCENARIO, threads=2)
+        sim.step(frames)
+        return sim.hash
+
+    def test_two_threads_stepping_one_simulation(self):
+        sim = papertear.Simulation(SCENARIO, threads=2)
+
+        def stepper():
+            for _ in range(20):
+                sim.step()
+
+        self.run_threads(stepper, stepper)
+        # Whole frames one after the other: the state of 40 frames stepped by one thread.
+        self.assertEqual(sim.frame, 40)
+        self.assertEqual(sim.hash, self.reference_hash(40))
+
+    def test_reading_while_another_thread_steps(self):
+        sim = papertear.Simulation(SCENARIO, threads=2)
+        reading, done = threading.Event(), threading.Event()
+        frames_seen = set()
+
+        def stepper():
+            try:
+                reading.wait()
+                for _ in range(4):
+                    sim.step(10)
+            finally:
+                done.set()
+
+        def reader():
+            reading.set()
+            while not done.is_set():
+                frames_seen.add(sim.frame)
+                tears, x, res = sim.tears, sim.positions, sim.result()
+                self.assertEqual(len(res["tears"]), len(tears))
+                self.assertTrue(np.isfinite(x).all())
+                sim.events, sim.fingers, sim.triangles, sim.hash
+
+        self.run_threads(stepper, reader)
+        # A read waits for the step(10) in progress: it sees the frames between the calls, never one inside.
+        self.assertTrue(frames_seen <= {0, 10, 20, 30, 40}, sorted(frames_seen))
+        self.assertEqual(sim.frame, 40)
+        self.assertEqual(sim.hash, self.reference_hash(40))
 
 
 class Readme(unittest.TestCase):
