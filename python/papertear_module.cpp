@@ -10,7 +10,7 @@
 //
 // One Simulation may be shared by Python threads: every method holds the simulation's own lock, so calls
 // are serialised (step() releases the GIL, not that lock). A thread that must wait for it waits without
-// the GIL, so whatever the thread holding the lock needs the GIL for, nothing deadlocks.
+// the GIL, so the thread stepping can take the GIL back between frames (signals) and nothing deadlocks.
 // Numpy views are outside the lock: reading one while another thread steps sees values of either frame.
 #include "engine/papertear.hpp"
 
@@ -20,10 +20,12 @@
 #include <pybind11/stl.h>
 
 #include <array>
+#include <atomic>
 #include <memory>
 #include <cstdint>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace py = pybind11;
@@ -63,6 +65,7 @@ pt::Scenario scenario_from(const py::object& src) {
 struct PySim {
   std::unique_ptr<pt::Simulation> sim;
   std::mutex mutex;
+  std::atomic<std::thread::id> owner{};  // the thread holding `mutex`, to refuse a re-entrant call
   std::vector<std::vector<pt::Vec3>> old_x;
   std::vector<std::vector<pt::Vec2>> old_rest;
   std::vector<std::vector<pt::Tri>> old_tri;
@@ -92,17 +95,26 @@ struct PySim {
 PySim& py_of(const py::object& self) { return self.cast<PySim&>(); }
 
 // Holds a simulation's lock for one call. Called with the GIL held; when another thread has the lock it
-// waits with the GIL released (that thread may need the GIL to finish).
+// waits with the GIL released (that thread may need the GIL to finish). The same thread asking again
+// (a signal handler run between frames of its own step()) is refused: waiting would never end.
 class SimLock {
  public:
-  explicit SimLock(PySim& p) : lock_(p.mutex, std::try_to_lock) {
+  explicit SimLock(PySim& p) : p_(p), lock_(p.mutex, std::try_to_lock) {
     if (!lock_.owns_lock()) {
+      if (p.owner.load() == std::this_thread::get_id())
+        throw std::runtime_error("Simulation: called again from inside one of its own calls on this thread "
+                                 "(a signal handler during step()?)");
       py::gil_scoped_release release;
       lock_.lock();
     }
+    p.owner.store(std::this_thread::get_id());
   }
+  ~SimLock() { p_.owner.store(std::thread::id()); }
+  SimLock(const SimLock&) = delete;
+  SimLock& operator=(const SimLock&) = delete;
 
  private:
+  PySim& p_;
   std::unique_lock<std::mutex> lock_;
 };
 
@@ -194,13 +206,20 @@ PYBIND11_MODULE(papertear, m) {
           "step",
           [](PySim& p, int32_t n) {
             const SimLock lock(p);
-            py::gil_scoped_release release;
             for (int32_t i = 0; i < n; ++i) {
-              p.make_room();
-              p.sim->step();
+              {
+                py::gil_scoped_release release;
+                p.make_room();
+                p.sim->step();
+              }
+              // Between frames, with the GIL: Ctrl-C raises KeyboardInterrupt here, the sheet whole at
+              // the frame just done (the main thread would otherwise see the signal only after all n).
+              if (PyErr_CheckSignals() != 0) throw py::error_already_set();
             }
           },
-          "n"_a = 1, "Advance n frames.")
+          "n"_a = 1,
+          "Advance n frames. A signal (Ctrl-C) stops it between two frames with its exception "
+          "(KeyboardInterrupt); `frame` tells how many were done and the simulation can go on.")
       .def(
           "flush",
           [](PySim& p) {

@@ -5,8 +5,10 @@ import json
 import os
 import pathlib
 import re
+import signal
 import tempfile
 import threading
+import time
 import unittest
 
 import numpy as np
@@ -263,6 +265,47 @@ class Threads(unittest.TestCase):
         self.assertTrue(frames_seen <= {0, 10, 20, 30, 40}, sorted(frames_seen))
         self.assertEqual(sim.frame, 40)
         self.assertEqual(sim.hash, self.reference_hash(40))
+
+    def test_a_signal_handler_using_the_stepping_simulation_is_refused(self):
+        # The handler runs between two frames of step(), on the thread holding the lock: waiting for it
+        # would never end, so the call is refused with a RuntimeError that step() then raises.
+        sim = papertear.Simulation(SCENARIO, threads=1)
+        previous = signal.signal(signal.SIGALRM, lambda *_: sim.frame)
+        try:
+            signal.setitimer(signal.ITIMER_REAL, 0.2)
+            with self.assertRaisesRegex(RuntimeError, "called again from inside one of its own calls"):
+                sim.step(3000)
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, previous)
+        self.assertLess(sim.frame, 3000)
+        sim.step()  # still usable
+
+
+class Interrupt(unittest.TestCase):
+    def test_ctrl_c_stops_step_between_frames(self):
+        # Issue 27: step(3000) released the GIL for all its frames, so Ctrl-C came after the last one
+        # (22 s later). Now KeyboardInterrupt comes after the frame in progress, and the sheet goes on.
+        sim = papertear.Simulation(SCENARIO, threads=1)
+        # As an interactive session has it (a background job starts with SIGINT ignored).
+        previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+        timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+        try:
+            start = time.monotonic()
+            timer.start()
+            with self.assertRaises(KeyboardInterrupt):
+                sim.step(3000)
+            seconds = time.monotonic() - start
+        finally:
+            timer.cancel()
+            signal.signal(signal.SIGINT, previous)
+        self.assertGreater(sim.frame, 0)
+        self.assertLess(sim.frame, 3000, f"interrupted after {seconds:.1f} s")
+        frames = sim.frame
+        sim.step(2)
+        reference = papertear.Simulation(SCENARIO, threads=1)
+        reference.step(frames + 2)
+        self.assertEqual(sim.hash, reference.hash)
 
 
 class Readme(unittest.TestCase):
