@@ -645,3 +645,19 @@ TEST_F(Cli, SetOutOfRangeOrNotUtf8IsExit2) {
   EXPECT_EQ(utf.err.find("internal"), std::string::npos) << utf.err;
   EXPECT_FALSE(fs::exists(dir_ / "u"));
 }
+
+// ---- issue 27, item 20: a failure is one line on stderr, a success prints nothing there ----
+
+// libpng printed its own "libpng error: Write Error" before papertear's line; /dev/full fails every write
+// with ENOSPC, as a full disk does.
+TEST_F(Cli, PngWriteOnAFullDiskIsOneLine) {
+  if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full";
+  fs::create_directories(dir_ / "o");
+  fs::create_symlink("/dev/full", dir_ / "o" / "pattern.png");
+  const Result r = run({"run", good().string(), "--out", "o", "--png", "--frames", "1"});
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_TRUE(one_line(r.err)) << "stderr is not exactly one line:\n" << r.err;
+  EXPECT_EQ(r.err.rfind("papertear: ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find("o/pattern.png: PNG write failed: Write Error (No space left on device)"), std::string::npos)
+      << r.err;
+}
