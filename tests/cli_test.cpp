@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <oneapi/tbb/info.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -660,4 +661,26 @@ TEST_F(Cli, PngWriteOnAFullDiskIsOneLine) {
   EXPECT_EQ(r.err.rfind("papertear: ", 0), 0u) << r.err;
   EXPECT_NE(r.err.find("o/pattern.png: PNG write failed: Write Error (No space left on device)"), std::string::npos)
       << r.err;
+}
+
+// TBB printed "TBB Warning: The number of workers is currently limited to ..." for --threads beyond the
+// CPUs, and the summary said "1000 threads" while it ran on what TBB gave.
+TEST_F(Cli, ThreadsBeyondTheCpusAreCappedAndTheSummarySaysSo) {
+  const int cpus = std::max(1, static_cast<int>(tbb::info::default_concurrency()));
+  if (cpus >= 1000) GTEST_SKIP() << cpus << " CPUs";
+  const std::string used = std::to_string(cpus) + (cpus == 1 ? " thread" : " threads");
+  const std::string note = "--threads 1000 capped at the " + std::to_string(cpus) + (cpus == 1 ? " CPU" : " CPUs") +
+                           " available";
+  const Result r = run({"run", good().string(), "--out", "o", "--threads", "1000"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  EXPECT_NE(r.out.find("(" + used + "; " + note + ")\n"), std::string::npos) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(read_file(dir_ / "o" / "result.json"))["threads"], cpus);
+  const Result b = run({"batch", good().string(), "--sheets", "2", "--out", "b", "--threads", "1000"});
+  ASSERT_EQ(b.status, 0) << b.err;
+  EXPECT_EQ(b.err, "");
+  EXPECT_NE(b.out.find(" on " + used + " (" + note + ") in "), std::string::npos) << b.out;
+  // At or under the CPUs nothing is said.
+  const Result one = run({"run", good().string(), "--out", "o1", "--threads", "1"});
+  EXPECT_NE(one.out.find("(1 thread)\n"), std::string::npos) << one.out;
 }
