@@ -24,6 +24,7 @@ namespace fs = std::filesystem;
 namespace {
 
 const std::string kBinary = std::string(PT_BINARY_DIR) + "/bin/papertear";
+const std::string kViewer = std::string(PT_BINARY_DIR) + "/bin/papertear-viewer";
 const std::string kBadDir = std::string(PT_SOURCE_DIR) + "/tests/data/bad";
 
 // A small sheet that runs in well under a second: A6, 60 triangles, 3 frames, two fingers pulling up.
@@ -75,9 +76,12 @@ class Cli : public ::testing::Test {
     if (!HasFailure()) fs::remove_all(dir_);
   }
 
-  Result run(const std::vector<std::string>& args) {
+  Result run(const std::vector<std::string>& args) { return run_program(kBinary, args); }
+
+  // `env` goes before the command: "env -u DISPLAY" runs it without a display.
+  Result run_program(const std::string& binary, const std::vector<std::string>& args, const std::string& env = "") {
     // timeout(1): a hang becomes a failure (status 124) instead of stalling the suite.
-    std::string cmd = "cd " + quote(dir_.string()) + " && timeout 120 " + quote(kBinary);
+    std::string cmd = "cd " + quote(dir_.string()) + " && " + env + " timeout 120 " + quote(binary);
     for (const std::string& a : args) cmd += " " + quote(a);
     cmd += " > stdout.txt 2> stderr.txt < /dev/null";
     const int raw = std::system(cmd.c_str());
@@ -683,4 +687,25 @@ TEST_F(Cli, ThreadsBeyondTheCpusAreCappedAndTheSummarySaysSo) {
   // At or under the CPUs nothing is said.
   const Result one = run({"run", good().string(), "--out", "o1", "--threads", "1"});
   EXPECT_NE(one.out.find("(1 thread)\n"), std::string::npos) << one.out;
+}
+
+// The viewer printed its usage after the line saying what was wrong, and GLFW's reason on a line of its own
+// before "cannot initialise GLFW".
+TEST_F(Cli, ViewerFailuresAreOneLine) {
+  if (!fs::exists(kViewer)) GTEST_SKIP() << kViewer << " not built";
+  const Result option = run_program(kViewer, {"--bogus"});
+  EXPECT_EQ(option.status, 2);
+  EXPECT_EQ(option.err, "papertear-viewer: unknown option --bogus (--help for the usage)\n");
+  const Result value = run_program(kViewer, {"--threads", "0"});
+  EXPECT_EQ(value.status, 2);
+  EXPECT_TRUE(one_line(value.err)) << value.err;
+  EXPECT_NE(value.err.find("--threads: expected an integer"), std::string::npos) << value.err;
+  const Result display = run_program(kViewer, {good().string(), "--frames", "1"}, "env -u DISPLAY -u WAYLAND_DISPLAY");
+  EXPECT_EQ(display.status, 1) << display.err;
+  EXPECT_TRUE(one_line(display.err)) << "stderr is not exactly one line:\n" << display.err;
+  EXPECT_EQ(display.err.rfind("papertear-viewer: cannot initialise GLFW", 0), 0u) << display.err;
+  const Result help = run_program(kViewer, {"--help"});
+  EXPECT_EQ(help.status, 0);
+  EXPECT_EQ(help.err, "");
+  EXPECT_EQ(help.out.rfind("usage: papertear-viewer", 0), 0u) << help.out;
 }
