@@ -421,38 +421,70 @@ std::string frames_path(const std::vector<Frame>& frames) {
   return p;
 }
 
-json parse_json_strict(const std::string& text, const std::string& file) {
-  std::vector<Frame> frames;
-  json::parser_callback_t cb = [&frames](int depth, json::parse_event_t ev, json& parsed) {
-    using E = json::parse_event_t;
-    if (depth > kMaxDepth) throw StrictnessError{"", "nesting deeper than " + std::to_string(kMaxDepth) + " levels"};
-    switch (ev) {
-      case E::object_start:
-      case E::array_start:
-        if (!frames.empty() && !frames.back().object) ++frames.back().index;
-        frames.push_back(Frame{ev == E::object_start, {}, -1, {}});
-        break;
-      case E::key: {
-        Frame& top = frames.back();
-        top.key = parsed.get<std::string>();
-        if (!top.keys.insert(top.key).second) {
-          std::string p = frames_path(frames);
-          throw StrictnessError{child(p, top.key), "duplicate key"};
-        }
-        break;
-      }
-      case E::value:
-        if (!frames.empty() && !frames.back().object) ++frames.back().index;
-        break;
-      case E::object_end:
-      case E::array_end:
-        frames.pop_back();
-        break;
-    }
+// json::parse's DOM builder with the strictness checks, as a SAX handler. Not json::parse with a
+// callback: nlohmann 3.11's callback builder rescans the enclosing array for a discarded value after every
+// object it closes (json_sax_dom_callback_parser::end_object), quadratic in an array of objects (400 000
+// `{}` in `fingers` took 21 s to be refused). The same events reach the checks, at the depths the callback
+// saw, so the same inputs are refused with the same messages.
+class StrictDomBuilder {
+ public:
+  explicit StrictDomBuilder(json& root) : dom_(root) {}
+
+  bool null() { return value() && dom_.null(); }
+  bool boolean(bool v) { return value() && dom_.boolean(v); }
+  bool number_integer(json::number_integer_t v) { return value() && dom_.number_integer(v); }
+  bool number_unsigned(json::number_unsigned_t v) { return value() && dom_.number_unsigned(v); }
+  bool number_float(json::number_float_t v, const json::string_t& text) { return value() && dom_.number_float(v, text); }
+  bool string(json::string_t& v) { return value() && dom_.string(v); }
+  bool binary(json::binary_t& v) { return value() && dom_.binary(v); }
+  bool start_object(std::size_t n) { return open(true) && dom_.start_object(n); }
+  bool start_array(std::size_t n) { return open(false) && dom_.start_array(n); }
+  bool end_object() { return close() && dom_.end_object(); }
+  bool end_array() { return close() && dom_.end_array(); }
+  bool key(json::string_t& k) {
+    check_depth(frames_.size());
+    Frame& top = frames_.back();
+    top.key = k;
+    if (!top.keys.insert(top.key).second) throw StrictnessError{child(frames_path(frames_), top.key), "duplicate key"};
+    return dom_.key(k);
+  }
+  template <class Exception>
+  bool parse_error(std::size_t position, const std::string& token, const Exception& e) {
+    return dom_.parse_error(position, token, e);  // throws e
+  }
+
+ private:
+  static void check_depth(size_t depth) {
+    if (depth > static_cast<size_t>(kMaxDepth))
+      throw StrictnessError{"", "nesting deeper than " + std::to_string(kMaxDepth) + " levels"};
+  }
+  bool value() {
+    check_depth(frames_.size());
+    if (!frames_.empty() && !frames_.back().object) ++frames_.back().index;
     return true;
-  };
+  }
+  bool open(bool object) {
+    check_depth(frames_.size());
+    if (!frames_.empty() && !frames_.back().object) ++frames_.back().index;
+    frames_.push_back(Frame{object, {}, -1, {}});
+    return true;
+  }
+  bool close() {
+    check_depth(frames_.size() - 1);
+    frames_.pop_back();
+    return true;
+  }
+
+  nlohmann::detail::json_sax_dom_parser<json> dom_;
+  std::vector<Frame> frames_;
+};
+
+json parse_json_strict(const std::string& text, const std::string& file) {
+  json root;
+  StrictDomBuilder builder(root);
   try {
-    return json::parse(text, cb);
+    json::sax_parse(text, &builder);
+    return root;
   } catch (const StrictnessError& e) {
     fail(file, e.path, e.problem);
   } catch (const json::parse_error& e) {

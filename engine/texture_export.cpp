@@ -6,9 +6,12 @@
 #include <png.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
+#include <string>
+#include <system_error>
 
 namespace pt {
 namespace {
@@ -103,13 +106,29 @@ void for_each_label(const CarveState& state, const PixelRect& r, std::vector<uin
   }
 }
 
+// libpng's default handlers print their own line on stderr ("libpng error: Write Error") before the
+// caller's one-line message; these keep the text for the exception instead. A failed write's errno (ENOSPC
+// on a full disk) is kept with it: "Write Error" alone does not say why.
+void keep_png_error(png_structp png, png_const_charp message) {
+  const int error = errno;
+  std::string& kept = *static_cast<std::string*>(png_get_error_ptr(png));
+  kept = message;
+  if (error != 0) kept += " (" + std::generic_category().message(error) + ")";
+  png_longjmp(png, 1);
+}
+
+// A warning is not a failure (the file is still written): nothing to say.
+void ignore_png_warning(png_structp, png_const_charp) {}
+
 }  // namespace
 
 void write_rgba_png(const std::string& path, int32_t width, int32_t height, const uint8_t* rgba) {
   if (width <= 0 || height <= 0) throw std::runtime_error(path + ": empty image");
   FILE* file = std::fopen(path.c_str(), "wb");
   if (!file) throw std::runtime_error(path + ": cannot open for writing");
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  std::string png_error_message;  // set by keep_png_error before it jumps back to the setjmp below
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &png_error_message, keep_png_error,
+                                            ignore_png_warning);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   if (!png || !info) {
     png_destroy_write_struct(&png, nullptr);
@@ -119,8 +138,9 @@ void write_rgba_png(const std::string& path, int32_t width, int32_t height, cons
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
     std::fclose(file);
-    throw std::runtime_error(path + ": PNG write failed");
+    throw std::runtime_error(path + ": PNG write failed: " + png_error_message);
   }
+  errno = 0;
   png_init_io(png, file);
   png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), 8, PNG_COLOR_TYPE_RGBA,
                PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
@@ -133,7 +153,7 @@ void write_rgba_png(const std::string& path, int32_t width, int32_t height, cons
     png_write_row(png, const_cast<png_bytep>(rgba + static_cast<size_t>(row) * static_cast<size_t>(width) * 4));
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
-  if (std::fclose(file) != 0) throw std::runtime_error(path + ": write failed");
+  if (std::fclose(file) != 0) throw std::runtime_error(path + ": write failed: " + std::generic_category().message(errno));
 }
 
 void write_rgba_png(const std::string& path, int32_t width, int32_t height, const std::vector<uint8_t>& rgba) {

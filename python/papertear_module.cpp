@@ -7,6 +7,11 @@
 // ahead of the engine's growth (the engine only push_backs/resizes, it never reassigns these vectors), and
 // when it must grow an array it moves the old storage into a graveyard that lives as long as the
 // Simulation, so an old view goes stale but stays readable.
+//
+// One Simulation may be shared by Python threads: every method holds the simulation's own lock, so calls
+// are serialised (step() releases the GIL, not that lock). A thread that must wait for it waits without
+// the GIL, so the thread stepping can take the GIL back between frames (signals) and nothing deadlocks.
+// Numpy views are outside the lock: reading one while another thread steps sees values of either frame.
 #include "engine/papertear.hpp"
 
 #include <nlohmann/json.hpp>
@@ -15,9 +20,12 @@
 #include <pybind11/stl.h>
 
 #include <array>
+#include <atomic>
 #include <memory>
 #include <cstdint>
+#include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace py = pybind11;
@@ -52,9 +60,12 @@ pt::Scenario scenario_from(const py::object& src) {
   return pt::load_scenario(path);
 }
 
-// The Python Simulation: the engine plus the storage views may still point to.
+// The Python Simulation: the engine plus the storage views may still point to, and the lock that
+// serialises the threads using it.
 struct PySim {
   std::unique_ptr<pt::Simulation> sim;
+  std::mutex mutex;
+  std::atomic<std::thread::id> owner{};  // the thread holding `mutex`, to refuse a re-entrant call
   std::vector<std::vector<pt::Vec3>> old_x;
   std::vector<std::vector<pt::Vec2>> old_rest;
   std::vector<std::vector<pt::Tri>> old_tri;
@@ -82,7 +93,30 @@ struct PySim {
 };
 
 PySim& py_of(const py::object& self) { return self.cast<PySim&>(); }
-const pt::Simulation& sim_of(const py::object& self) { return *py_of(self).sim; }
+
+// Holds a simulation's lock for one call. Called with the GIL held; when another thread has the lock it
+// waits with the GIL released (that thread may need the GIL to finish). The same thread asking again
+// (a signal handler run between frames of its own step()) is refused: waiting would never end.
+class SimLock {
+ public:
+  explicit SimLock(PySim& p) : p_(p), lock_(p.mutex, std::try_to_lock) {
+    if (!lock_.owns_lock()) {
+      if (p.owner.load() == std::this_thread::get_id())
+        throw std::runtime_error("Simulation: called again from inside one of its own calls on this thread "
+                                 "(a signal handler during step()?)");
+      py::gil_scoped_release release;
+      lock_.lock();
+    }
+    p.owner.store(std::this_thread::get_id());
+  }
+  ~SimLock() { p_.owner.store(std::thread::id()); }
+  SimLock(const SimLock&) = delete;
+  SimLock& operator=(const SimLock&) = delete;
+
+ private:
+  PySim& p_;
+  std::unique_lock<std::mutex> lock_;
+};
 
 // A finger index from Python: IndexError, as Python's sequences say it, for one the sheet does not have (not
 // wrapped: -1 is no finger, and a large int is not cut to 32 bits).
@@ -147,7 +181,9 @@ PYBIND11_MODULE(papertear, m) {
   m.def("parse_scenario", &pt::parse_scenario, "json_text"_a, "path_for_messages"_a = "<string>",
         "Parse and validate scenario JSON text; raises InputError.");
 
-  py::class_<PySim>(m, "Simulation", "One simulated sheet.")
+  py::class_<PySim>(m, "Simulation",
+                    "One simulated sheet. Threads may share it: its calls take turns (a call waits for the "
+                    "one in progress, step(n) included).")
       .def(py::init([](const py::object& src, int32_t threads, bool check_invariants) {
              if (threads < 1 || threads > pt::kMaxThreads)
                throw py::value_error("threads must be 1 to " + std::to_string(pt::kMaxThreads) + ", got " +
@@ -169,60 +205,100 @@ PYBIND11_MODULE(papertear, m) {
       .def(
           "step",
           [](PySim& p, int32_t n) {
-            py::gil_scoped_release release;
+            const SimLock lock(p);
             for (int32_t i = 0; i < n; ++i) {
-              p.make_room();
-              p.sim->step();
+              {
+                py::gil_scoped_release release;
+                p.make_room();
+                p.sim->step();
+              }
+              // Between frames, with the GIL: Ctrl-C raises KeyboardInterrupt here, the sheet whole at
+              // the frame just done (the main thread would otherwise see the signal only after all n).
+              if (PyErr_CheckSignals() != 0) throw py::error_already_set();
             }
           },
-          "n"_a = 1, "Advance n frames.")
+          "n"_a = 1,
+          "Advance n frames. A signal (Ctrl-C) stops it between two frames with its exception "
+          "(KeyboardInterrupt); `frame` tells how many were done and the simulation can go on.")
       .def(
           "flush",
           [](PySim& p) {
+            const SimLock lock(p);
             py::gil_scoped_release release;
             p.sim->flush();
           },
           "Carve the last frame's segments (tears' `detail` complete).")
-      .def_property_readonly("frame", [](const PySim& p) { return p.sim->frame(); })
-      .def_property_readonly("time", [](const PySim& p) { return p.sim->time(); })
-      .def_property_readonly("threads", [](const PySim& p) { return p.sim->threads(); })
-      .def_property_readonly("scenario", [](const PySim& p) { return p.sim->scenario(); })
-      .def_property_readonly("hash", [](const PySim& p) { return p.sim->state_hash(); }, "Hex digest of the current state.")
-      .def_property_readonly("topology_version", [](const PySim& p) { return p.sim->sheet().topology_version; },
-                             "Changes whenever vertices/triangles are inserted: views taken before are stale.")
+      .def_property_readonly("frame", [](PySim& p) {
+        const SimLock lock(p);
+        return p.sim->frame();
+      })
+      .def_property_readonly("time", [](PySim& p) {
+        const SimLock lock(p);
+        return p.sim->time();
+      })
+      .def_property_readonly("threads", [](PySim& p) {
+        const SimLock lock(p);
+        return p.sim->threads();
+      })
+      .def_property_readonly("scenario", [](PySim& p) {
+        const SimLock lock(p);
+        return p.sim->scenario();
+      })
+      .def_property_readonly(
+          "hash",
+          [](PySim& p) {
+            const SimLock lock(p);
+            return p.sim->state_hash();
+          },
+          "Hex digest of the current state.")
+      .def_property_readonly(
+          "topology_version",
+          [](PySim& p) {
+            const SimLock lock(p);
+            return p.sim->sheet().topology_version;
+          },
+          "Changes whenever vertices/triangles are inserted: views taken before are stale.")
       // Views (no copy).
       .def_property_readonly(
           "positions",
           [](py::object self) {
-            const auto& x = sim_of(self).sheet().verts.x;
+            const SimLock lock(py_of(self));
+            const auto& x = py_of(self).sim->sheet().verts.x;
             return view<double>(x.empty() ? nullptr : x.front().data(), x.size(), 3, sizeof(pt::Vec3), self);
           },
           "(n, 3) float64 view of the 3D vertex positions, m.")
       .def_property_readonly(
           "rest",
           [](py::object self) {
-            const auto& r = sim_of(self).sheet().verts.rest;
+            const SimLock lock(py_of(self));
+            const auto& r = py_of(self).sim->sheet().verts.rest;
             return view<double>(r.empty() ? nullptr : r.front().data(), r.size(), 2, sizeof(pt::Vec2), self);
           },
           "(n, 2) float64 view of the pattern (u, v) coordinates, m.")
       .def_property_readonly(
           "triangles",
           [](py::object self) {
-            const auto& t = sim_of(self).sheet().tris.tri;
+            const SimLock lock(py_of(self));
+            const auto& t = py_of(self).sim->sheet().tris.tri;
             return view<int32_t>(t.empty() ? nullptr : t.front().data(), t.size(), 3, sizeof(pt::Tri), self);
           },
           "(m, 3) int32 view of the triangles' vertex ids.")
       .def_property_readonly(
           "triangle_pieces",
           [](py::object self) {
-            const auto& p = sim_of(self).sheet().tris.piece;
+            const SimLock lock(py_of(self));
+            const auto& p = py_of(self).sim->sheet().tris.piece;
             return view<int32_t>(p.data(), p.size(), 1, sizeof(int32_t), self).attr("reshape")(-1);
           },
           "(m,) int32 view: connected piece id of each triangle.")
-      .def_property_readonly("pieces", [](const PySim& p) { return p.sim->sheet().topo.piece_count; })
+      .def_property_readonly("pieces", [](PySim& p) {
+        const SimLock lock(p);
+        return p.sim->sheet().topo.piece_count;
+      })
       .def_property_readonly(
           "tears",
-          [](const PySim& p) {
+          [](PySim& p) {
+            const SimLock lock(p);
             const pt::Simulation& s = *p.sim;
             py::list out;
             for (const pt::Tear& t : s.sheet().tears)
@@ -235,7 +311,8 @@ PYBIND11_MODULE(papertear, m) {
           "Tears: id, parent (None), kind (finger|junction|inward), frame, uv, tips, detail (after flush()).")
       .def_property_readonly(
           "events",
-          [](const PySim& p) {
+          [](PySim& p) {
+            const SimLock lock(p);
             const pt::Simulation& s = *p.sim;
             py::list out;
             for (const pt::TearEvent& e : s.events())
@@ -245,7 +322,8 @@ PYBIND11_MODULE(papertear, m) {
           "All events so far: kind (tear_started|tear_extended|piece_separated), tear, frame.")
       .def_property_readonly(
           "fingers",
-          [](const PySim& p) {
+          [](PySim& p) {
+            const SimLock lock(p);
             const pt::Simulation& s = *p.sim;
             py::list out;
             for (const pt::Finger& f : s.sheet().fingers)
@@ -257,7 +335,8 @@ PYBIND11_MODULE(papertear, m) {
           })
       .def_property_readonly(
           "timings",
-          [](const PySim& p) {
+          [](PySim& p) {
+            const SimLock lock(p);
             const pt::Simulation& s = *p.sim;
             const pt::TimingReport& r = s.timings();
             py::dict systems;
@@ -268,18 +347,29 @@ PYBIND11_MODULE(papertear, m) {
           "Milliseconds per frame: Table 1 groups and per system, {'avg', 'max', 'count'}.")
       .def(
           "result",
-          [](const PySim& p) {
-            const pt::Simulation& s = *p.sim;
-            nlohmann::ordered_json doc;
-            pt::build_result_json(s, doc);
-            return py::module_::import("json").attr("loads")(doc.dump());
+          [](PySim& p) {
+            std::string text;
+            {
+              const SimLock lock(p);
+              nlohmann::ordered_json doc;
+              pt::build_result_json(*p.sim, doc);
+              text = doc.dump();
+            }
+            return py::module_::import("json").attr("loads")(text);
           },
           "The result.json document (docs/result-format.md) as a dict; call flush() first for complete tear details.")
-      .def("write_result", [](const PySim& p, const std::string& path) { return pt::write_result_json(*p.sim, path); }, "path"_a, "Write result.json; returns True when status is ok.")
+      .def(
+          "write_result",
+          [](PySim& p, const std::string& path) {
+            const SimLock lock(p);
+            return pt::write_result_json(*p.sim, path);
+          },
+          "path"_a, "Write result.json; returns True when status is ok.")
       // Fingers.
       .def(
           "attach_finger",
           [](PySim& p, const std::string& name, std::array<double, 2> uv) {
+            const SimLock lock(p);
             p.make_room();
             const int32_t i = p.sim->attach_finger(name, pt::Vec2(uv[0], uv[1]));
             if (i < 0) throw py::value_error("attach_finger: (" + std::to_string(uv[0]) + ", " + std::to_string(uv[1]) +
@@ -290,6 +380,7 @@ PYBIND11_MODULE(papertear, m) {
       .def(
           "move_finger",
           [](PySim& p, int64_t finger, std::array<double, 3> x) {
+            const SimLock lock(p);
             p.sim->move_finger(finger_index(p, finger, "move_finger"), pt::Vec3(x[0], x[1], x[2]));
           },
           "finger"_a, "target"_a,
@@ -297,6 +388,9 @@ PYBIND11_MODULE(papertear, m) {
           "does not have; InputError (a ValueError) for a target that is not finite or beyond 1000 m.")
       .def(
           "release_finger",
-          [](PySim& p, int64_t finger) { p.sim->release_finger(finger_index(p, finger, "release_finger")); },
+          [](PySim& p, int64_t finger) {
+            const SimLock lock(p);
+            p.sim->release_finger(finger_index(p, finger, "release_finger"));
+          },
           "finger"_a, "Let the finger go. IndexError for a finger the sheet does not have.");
 }

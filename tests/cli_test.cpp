@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <fcntl.h>
+#include <oneapi/tbb/info.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -28,6 +29,7 @@ namespace fs = std::filesystem;
 namespace {
 
 const std::string kBinary = std::string(PT_BINARY_DIR) + "/bin/papertear";
+const std::string kViewer = std::string(PT_BINARY_DIR) + "/bin/papertear-viewer";
 const std::string kBadDir = std::string(PT_SOURCE_DIR) + "/tests/data/bad";
 
 // A small sheet that runs in well under a second: A6, 60 triangles, 3 frames, two fingers pulling up.
@@ -79,13 +81,18 @@ class Cli : public ::testing::Test {
     if (!HasFailure()) fs::remove_all(dir_);
   }
 
-  Result run(const std::vector<std::string>& args) {
+  Result run(const std::vector<std::string>& args) { return run_program(kBinary, args); }
+
+  // `env` goes before the command: "env -u DISPLAY" runs it without a display.
+  Result run_program(const std::string& binary, const std::vector<std::string>& args, const std::string& env = "") {
     // timeout(1): a hang becomes a failure (status 124) instead of stalling the suite.
     // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) on "cd " + std::string&& once inlined.
     std::string cmd = "cd ";
     cmd += quote(dir_.string());
-    cmd += " && timeout 120 ";
-    cmd += quote(kBinary);
+    cmd += " && ";
+    cmd += env;
+    cmd += " timeout 120 ";
+    cmd += quote(binary);
     for (const std::string& a : args) {
       cmd += " ";
       cmd += quote(a);
@@ -760,4 +767,63 @@ TEST_F(Cli, SetOutOfRangeOrNotUtf8IsExit2) {
   EXPECT_NE(utf.err.find("--set name=\\xff: not UTF-8 text"), std::string::npos) << utf.err;
   EXPECT_EQ(utf.err.find("internal"), std::string::npos) << utf.err;
   EXPECT_FALSE(fs::exists(dir_ / "u"));
+}
+
+// ---- issue 27, item 20: a failure is one line on stderr, a success prints nothing there ----
+
+// libpng printed its own "libpng error: Write Error" before papertear's line; /dev/full fails every write
+// with ENOSPC, as a full disk does.
+TEST_F(Cli, PngWriteOnAFullDiskIsOneLine) {
+  if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full";
+  fs::create_directories(dir_ / "o");
+  fs::create_symlink("/dev/full", dir_ / "o" / "pattern.png");
+  const Result r = run({"run", good().string(), "--out", "o", "--png", "--frames", "1"});
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_TRUE(one_line(r.err)) << "stderr is not exactly one line:\n" << r.err;
+  EXPECT_EQ(r.err.rfind("papertear: ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find("o/pattern.png: PNG write failed: Write Error (No space left on device)"), std::string::npos)
+      << r.err;
+}
+
+// TBB printed "TBB Warning: The number of workers is currently limited to ..." for --threads beyond the
+// CPUs, and the summary said "1000 threads" while it ran on what TBB gave.
+TEST_F(Cli, ThreadsBeyondTheCpusAreCappedAndTheSummarySaysSo) {
+  const int cpus = std::max(1, static_cast<int>(tbb::info::default_concurrency()));
+  if (cpus >= 1000) GTEST_SKIP() << cpus << " CPUs";
+  const std::string used = std::to_string(cpus) + (cpus == 1 ? " thread" : " threads");
+  const std::string note = "--threads 1000 capped at the " + std::to_string(cpus) + (cpus == 1 ? " CPU" : " CPUs") +
+                           " available";
+  const Result r = run({"run", good().string(), "--out", "o", "--threads", "1000"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  EXPECT_NE(r.out.find("(" + used + "; " + note + ")\n"), std::string::npos) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(read_file(dir_ / "o" / "result.json"))["threads"], cpus);
+  const Result b = run({"batch", good().string(), "--sheets", "2", "--out", "b", "--threads", "1000"});
+  ASSERT_EQ(b.status, 0) << b.err;
+  EXPECT_EQ(b.err, "");
+  EXPECT_NE(b.out.find(" on " + used + " (" + note + ") in "), std::string::npos) << b.out;
+  // At or under the CPUs nothing is said.
+  const Result one = run({"run", good().string(), "--out", "o1", "--threads", "1"});
+  EXPECT_NE(one.out.find("(1 thread)\n"), std::string::npos) << one.out;
+}
+
+// The viewer printed its usage after the line saying what was wrong, and GLFW's reason on a line of its own
+// before "cannot initialise GLFW".
+TEST_F(Cli, ViewerFailuresAreOneLine) {
+  if (!fs::exists(kViewer)) GTEST_SKIP() << kViewer << " not built";
+  const Result option = run_program(kViewer, {"--bogus"});
+  EXPECT_EQ(option.status, 2);
+  EXPECT_EQ(option.err, "papertear-viewer: unknown option --bogus (--help for the usage)\n");
+  const Result value = run_program(kViewer, {"--threads", "0"});
+  EXPECT_EQ(value.status, 2);
+  EXPECT_TRUE(one_line(value.err)) << value.err;
+  EXPECT_NE(value.err.find("--threads: expected an integer"), std::string::npos) << value.err;
+  const Result display = run_program(kViewer, {good().string(), "--frames", "1"}, "env -u DISPLAY -u WAYLAND_DISPLAY");
+  EXPECT_EQ(display.status, 1) << display.err;
+  EXPECT_TRUE(one_line(display.err)) << "stderr is not exactly one line:\n" << display.err;
+  EXPECT_EQ(display.err.rfind("papertear-viewer: cannot initialise GLFW", 0), 0u) << display.err;
+  const Result help = run_program(kViewer, {"--help"});
+  EXPECT_EQ(help.status, 0);
+  EXPECT_EQ(help.err, "");
+  EXPECT_EQ(help.out.rfind("usage: papertear-viewer", 0), 0u) << help.out;
 }

@@ -37,6 +37,8 @@
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 
+#include <oneapi/tbb/info.h>
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -93,10 +95,10 @@ struct Options {
   bool realtime = false;
 };
 
+// --help only (on stdout): a bad command line gets its one line on stderr, without the usage after it.
 void usage() {
-  std::fprintf(stderr,
-               "usage: papertear-viewer [SCENARIO] [--set KEY=VALUE]... [--frames N] [--screenshot FILE.png] "
-               "[--threads N] [--size WxH] [--msaa N] [--realtime]\n");
+  std::printf("usage: papertear-viewer [SCENARIO] [--set KEY=VALUE]... [--frames N] [--screenshot FILE.png] "
+              "[--threads N] [--size WxH] [--msaa N] [--realtime]\n");
 }
 
 bool parse_args(int argc, char** argv, Options& o) {
@@ -155,7 +157,7 @@ bool parse_args(int argc, char** argv, Options& o) {
       usage();
       std::exit(kExitOk);
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "papertear-viewer: unknown option %s\n", a.c_str());
+      std::fprintf(stderr, "papertear-viewer: unknown option %s (--help for the usage)\n", a.c_str());
       return false;
     } else if (o.scenario.empty()) {
       o.scenario = a;
@@ -1038,16 +1040,23 @@ struct App {
   }
 };
 
-void glfw_error(int code, const char* message) { std::fprintf(stderr, "papertear-viewer: glfw %d: %s\n", code, message); }
+// GLFW's last error, told in the one line of the failure it causes (printed as it came, a failed
+// glfwInit was two lines: GLFW's reason, then ours). An error nothing fails on (the MSAA window refused
+// before the one without) is not a failure and prints nothing.
+std::string last_glfw_error;
+void keep_glfw_error(int code, const char* message) {
+  last_glfw_error = "glfw " + std::to_string(code) + ": " + (message ? message : "");
+}
+std::string glfw_reason() { return last_glfw_error.empty() ? "" : " (" + last_glfw_error + ")"; }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   Options opt;
-  if (!parse_args(argc, argv, opt)) {
-    usage();
-    return kExitInput;
-  }
+  if (!parse_args(argc, argv, opt)) return kExitInput;
+  // As papertear's --threads: TBB runs no more than the CPUs this process may use, and asked for more it
+  // prints a warning of its own.
+  opt.threads = std::min(opt.threads, std::max(1, static_cast<int>(tbb::info::default_concurrency())));
   auto app = std::make_unique<App>();
   app->opt = opt;
   try {
@@ -1060,9 +1069,10 @@ int main(int argc, char** argv) {
     return kExitInput;
   }
 
-  glfwSetErrorCallback(glfw_error);
+  glfwSetErrorCallback(keep_glfw_error);
   if (!glfwInit()) {
-    std::fprintf(stderr, "papertear-viewer: cannot initialise GLFW (no display? try xvfb-run -a)\n");
+    std::fprintf(stderr, "papertear-viewer: cannot initialise GLFW%s: no display? try xvfb-run -a\n",
+                 glfw_reason().c_str());
     return kExitInternal;
   }
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
@@ -1077,7 +1087,7 @@ int main(int argc, char** argv) {
     app->window = glfwCreateWindow(opt.width, opt.height, title.c_str(), nullptr, nullptr);
   }
   if (!app->window) {
-    std::fprintf(stderr, "papertear-viewer: cannot create an OpenGL 3.3 core window\n");
+    std::fprintf(stderr, "papertear-viewer: cannot create an OpenGL 3.3 core window%s\n", glfw_reason().c_str());
     glfwTerminate();
     return kExitInternal;
   }

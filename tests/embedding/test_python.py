@@ -5,7 +5,10 @@ import json
 import os
 import pathlib
 import re
+import signal
 import tempfile
+import threading
+import time
 import unittest
 
 import numpy as np
@@ -196,6 +199,113 @@ class Bindings(unittest.TestCase):
         sim.step()
         for f in sim.fingers:
             self.assertTrue(np.all(np.isfinite(sim.positions[f["vertex"]])), f["name"])
+
+
+class Threads(unittest.TestCase):
+    """Issue 27: one Simulation used from two threads corrupted the heap ("malloc(): invalid size", both
+    stepping) or segfaulted (one stepping, one reading). Calls are serialised by the simulation's lock."""
+
+    def run_threads(self, *targets):
+        errors = []
+
+        def guarded(target):
+            try:
+                target()
+            except BaseException as e:  # noqa: BLE001 - any exception in a thread is a failure here
+                errors.append(e)
+
+        threads = [threading.Thread(target=guarded, args=(t,)) for t in targets]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        self.assertEqual(errors, [])
+
+    def reference_hash(self, frames):
+        sim = papertear.Simulation(SCENARIO, threads=2)
+        sim.step(frames)
+        return sim.hash
+
+    def test_two_threads_stepping_one_simulation(self):
+        sim = papertear.Simulation(SCENARIO, threads=2)
+
+        def stepper():
+            for _ in range(20):
+                sim.step()
+
+        self.run_threads(stepper, stepper)
+        # Whole frames one after the other: the state of 40 frames stepped by one thread.
+        self.assertEqual(sim.frame, 40)
+        self.assertEqual(sim.hash, self.reference_hash(40))
+
+    def test_reading_while_another_thread_steps(self):
+        sim = papertear.Simulation(SCENARIO, threads=2)
+        reading, done = threading.Event(), threading.Event()
+        frames_seen = set()
+
+        def stepper():
+            try:
+                reading.wait()
+                for _ in range(4):
+                    sim.step(10)
+            finally:
+                done.set()
+
+        def reader():
+            reading.set()
+            while not done.is_set():
+                frames_seen.add(sim.frame)
+                tears, x, res = sim.tears, sim.positions, sim.result()
+                self.assertEqual(len(res["tears"]), len(tears))
+                self.assertTrue(np.isfinite(x).all())
+                sim.events, sim.fingers, sim.triangles, sim.hash
+
+        self.run_threads(stepper, reader)
+        # A read waits for the step(10) in progress: it sees the frames between the calls, never one inside.
+        self.assertTrue(frames_seen <= {0, 10, 20, 30, 40}, sorted(frames_seen))
+        self.assertEqual(sim.frame, 40)
+        self.assertEqual(sim.hash, self.reference_hash(40))
+
+    def test_a_signal_handler_using_the_stepping_simulation_is_refused(self):
+        # The handler runs between two frames of step(), on the thread holding the lock: waiting for it
+        # would never end, so the call is refused with a RuntimeError that step() then raises.
+        sim = papertear.Simulation(SCENARIO, threads=1)
+        previous = signal.signal(signal.SIGALRM, lambda *_: sim.frame)
+        try:
+            signal.setitimer(signal.ITIMER_REAL, 0.2)
+            with self.assertRaisesRegex(RuntimeError, "called again from inside one of its own calls"):
+                sim.step(3000)
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, previous)
+        self.assertLess(sim.frame, 3000)
+        sim.step()  # still usable
+
+
+class Interrupt(unittest.TestCase):
+    def test_ctrl_c_stops_step_between_frames(self):
+        # Issue 27: step(3000) released the GIL for all its frames, so Ctrl-C came after the last one
+        # (22 s later). Now KeyboardInterrupt comes after the frame in progress, and the sheet goes on.
+        sim = papertear.Simulation(SCENARIO, threads=1)
+        # As an interactive session has it (a background job starts with SIGINT ignored).
+        previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+        timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+        try:
+            start = time.monotonic()
+            timer.start()
+            with self.assertRaises(KeyboardInterrupt):
+                sim.step(3000)
+            seconds = time.monotonic() - start
+        finally:
+            timer.cancel()
+            signal.signal(signal.SIGINT, previous)
+        self.assertGreater(sim.frame, 0)
+        self.assertLess(sim.frame, 3000, f"interrupted after {seconds:.1f} s")
+        frames = sim.frame
+        sim.step(2)
+        reference = papertear.Simulation(SCENARIO, threads=1)
+        reference.step(frames + 2)
+        self.assertEqual(sim.hash, reference.hash)
 
 
 class Readme(unittest.TestCase):
