@@ -20,6 +20,7 @@
 #include <CLI/CLI.hpp>
 #include <fcntl.h>
 #include <oneapi/tbb/info.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -267,15 +268,23 @@ std::string gigabytes(double bytes) {
   return buf;
 }
 
-// A batch runs up to --threads sheets at once: their estimated memory (the mesh may have 20% more
-// triangles than asked) must fit the machine, which a sheet alone at the scenario cap does.
+// A batch runs up to --threads sheets at once (capped at the CPUs): their estimated memory (the mesh may
+// have 20% more triangles than asked) must fit what the process may use, the machine's memory or a lower
+// address-space limit (ulimit -v), which a sheet alone at the scenario cap does.
 void check_memory_for_batch(int32_t at_once, int32_t triangles) {
-  const double physical = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGE_SIZE));
+  double usable = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGE_SIZE));
+  const char* what = "the machine has ";
+  rlimit limit{};
+  if (::getrlimit(RLIMIT_AS, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY &&
+      static_cast<double>(limit.rlim_cur) < usable) {
+    usable = static_cast<double>(limit.rlim_cur);
+    what = "the process may use (ulimit -v) ";
+  }
   const double need = at_once * pt::estimated_sheet_bytes(static_cast<int64_t>(triangles) * 6 / 5);
-  if (!(physical > 0) || need <= physical) return;
+  if (!(usable > 0) || need <= usable) return;
   throw UsageError("--threads: " + plural(at_once, "sheet") + " of " + plural(triangles, "triangle") +
-                   " at once would take about " + gigabytes(need) + " of memory, the machine has " +
-                   gigabytes(physical) + " (fewer --threads or triangles)");
+                   " at once would take about " + gigabytes(need) + " of memory, " + what + gigabytes(usable) +
+                   " (fewer --threads or triangles)");
 }
 
 // --obj writes every frame: refused before the run when the estimate does not fit the free space of the

@@ -6,7 +6,7 @@
 # Prints executions and findings per target; exit 1 when anything was found.
 # fuzz_scenario takes inputs up to FUZZ_MAX_LEN (1 MiB), grown to it from the start (-len_control=0; by
 # default 60 s stayed under the largest seed). The quadratic array parse of issue 27 took 0.77 s on 8 KiB of
-# `{}` in this build, under -timeout=20, and over 20 s on 1 MiB or on the 120 KB seed big-many_objects.json
+# `{}` in this build, under -timeout=20, and over 20 s on 1 MiB or on the 120 KB seed bad-many_objects.json
 # (a finding); the linear parse takes 0.87 s and 0.09 s. fuzz_remesher stays at 8 KiB: its bytes are cuts,
 # and a million bytes of cuts is a legitimately long run, not a finding.
 # Usage: scripts/fuzz.sh [target...]   (FUZZ_SECONDS, FUZZ_MAX_LEN, FUZZ_BUILD, JOBS overridable)
