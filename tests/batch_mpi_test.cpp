@@ -4,6 +4,8 @@
 // no files; a sheet that fails on a rank does not lose the others'.
 #include "engine/batch_mpi.hpp"
 
+#include "command_line.hpp"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <sys/wait.h>
@@ -125,23 +127,9 @@ TEST(BatchMpi, RangesCoverEverySheetOnceAndShrink) {
   EXPECT_EQ(next_sheet_range(7, 7, 2, 1).count, 0);
 }
 
-struct Result {
-  int status = -1;
-  std::string out, err;
-};
-
-std::string read_file(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
-
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
+using pt_test::quote;
+using pt_test::read_file;
+using pt_test::Result;
 
 class BatchMpiRanks : public ::testing::Test {
  protected:
@@ -161,7 +149,7 @@ class BatchMpiRanks : public ::testing::Test {
 
   // `ranks` 0: the program alone, without mpirun.
   Result run(int ranks, const std::string& program, const std::vector<std::string>& args) {
-    std::string cmd = "cd " + quote(dir_.string()) + " && ";
+    std::string cmd;
 #ifdef PT_MPIEXEC
     if (ranks > 0) {
       // Open MPI keeps allocations of its components until exit and unloads them, so LeakSanitizer reports
@@ -175,24 +163,14 @@ class BatchMpiRanks : public ::testing::Test {
     }
 #endif
     cmd += quote(program);
-    for (const std::string& a : args) cmd += " " + quote(a);
-    cmd += " > stdout.txt 2> stderr.txt < /dev/null";
-    const int raw = std::system(cmd.c_str());
-    Result r;
-    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + (WIFSIGNALED(raw) ? WTERMSIG(raw) : 0);
-    r.out = read_file(dir_ / "stdout.txt");
-    r.err = read_file(dir_ / "stderr.txt");
-    fs::remove(dir_ / "stdout.txt");
-    fs::remove(dir_ / "stderr.txt");
-    return r;
+    for (const std::string& a : args) {  // piece by piece: GCC 12's false -Wrestrict on " " + std::string&&
+      cmd += " ";
+      cmd += quote(a);
+    }
+    return pt_test::run_in(dir_, cmd);
   }
 
-  std::vector<std::string> listing() {
-    std::vector<std::string> names;
-    for (const auto& e : fs::recursive_directory_iterator(dir_)) names.push_back(e.path().lexically_relative(dir_));
-    std::sort(names.begin(), names.end());
-    return names;
-  }
+  std::vector<std::string> listing() { return pt_test::listing(dir_); }
 
   fs::path dir_;
 };

@@ -4,6 +4,8 @@
 #include "engine/scenario.hpp"
 #include "engine/texture_export.hpp"
 
+#include "command_line.hpp"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <fcntl.h>
@@ -43,28 +45,10 @@ const char* kGood = R"({
   ]
 })";
 
-std::string read_file(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
-
-void write_file(const fs::path& p, const std::string& text) {
-  std::ofstream f(p, std::ios::binary);
-  f << text;
-}
-
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-struct Result {
-  int status = -1;
-  std::string out, err;
-};
+using pt_test::quote;
+using pt_test::read_file;
+using pt_test::Result;
+using pt_test::write_file;
 
 // Each test works in its own empty directory (the default output dir is relative: out/<name>).
 class Cli : public ::testing::Test {
@@ -86,26 +70,14 @@ class Cli : public ::testing::Test {
   // `env` goes before the command: "env -u DISPLAY" runs it without a display.
   Result run_program(const std::string& binary, const std::vector<std::string>& args, const std::string& env = "") {
     // timeout(1): a hang becomes a failure (status 124) instead of stalling the suite.
-    // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) on "cd " + std::string&& once inlined.
-    std::string cmd = "cd ";
-    cmd += quote(dir_.string());
-    cmd += " && ";
-    cmd += env;
+    std::string cmd = env;
     cmd += " timeout 120 ";
     cmd += quote(binary);
     for (const std::string& a : args) {
       cmd += " ";
       cmd += quote(a);
     }
-    cmd += " > stdout.txt 2> stderr.txt < /dev/null";
-    const int raw = std::system(cmd.c_str());
-    Result r;
-    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + (WIFSIGNALED(raw) ? WTERMSIG(raw) : 0);
-    r.out = read_file(dir_ / "stdout.txt");
-    r.err = read_file(dir_ / "stderr.txt");
-    fs::remove(dir_ / "stdout.txt");
-    fs::remove(dir_ / "stderr.txt");
-    return r;
+    return pt_test::run_in(dir_, cmd);
   }
 
   fs::path good() {
@@ -115,12 +87,7 @@ class Cli : public ::testing::Test {
   }
 
   // Everything in the working directory (the run must have created nothing).
-  std::vector<std::string> listing() {
-    std::vector<std::string> names;
-    for (const auto& e : fs::recursive_directory_iterator(dir_)) names.push_back(e.path().lexically_relative(dir_));
-    std::sort(names.begin(), names.end());
-    return names;
-  }
+  std::vector<std::string> listing() { return pt_test::listing(dir_); }
 
   fs::path dir_;
 };
