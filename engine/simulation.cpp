@@ -322,13 +322,20 @@ struct Simulation::Impl {
     physics_alpha = 1.0;
     const bool may_stop = stops_for_tearing();
     for (int32_t s = first; s <= n; ++s) {
-      if (may_stop && s < n) save_substep_start();
-      substep(static_cast<double>(s) / n, !may_stop || s == n ? Reactions::Grip : Reactions::Read);
-      if (!may_stop || s == n) continue;
+      if (!may_stop) {
+        substep(static_cast<double>(s) / n, Reactions::Grip);
+        continue;
+      }
+      save_substep_start();
+      substep(static_cast<double>(s) / n, Reactions::Read);
       // The substep left the reactions of the state it started from; the stop reads the state it reached,
-      // else a start is cut one substep late, on a strip whose pull has grown meanwhile.
-      if (!stop_due()) {
-        read_reactions(sheet.verts, scenario.sim.gravity, sheet.fingers);
+      // else a start is cut one substep late, on a strip whose pull has grown meanwhile. The frame's last
+      // substep stops too (its remaining substeps are none), else a start due in it was read at its end.
+      // A finger past its grip slips at the frame's last substep, when no cut is due there.
+      const bool due = stop_due();
+      if (!due || (s == n && !tear_due_now())) {
+        if (s == n) check_grip(sheet.verts, scenario.sim.gravity, sheet.fingers);
+        else read_reactions(sheet.verts, scenario.sim.gravity, sheet.fingers);
         continue;
       }
       resume_substep = s + 1;
@@ -344,8 +351,10 @@ struct Simulation::Impl {
   bool stop_due() {
     internal_forces();
     read_transient_reactions(sheet.verts, scenario.sim.gravity, sheet.fingers);
-    return grip_exceeded(sheet.fingers) || tension_rays_would_tear(tearing_params, candidates, sheet, tearing_scratch);
+    return grip_exceeded(sheet.fingers) || tear_due_now();
   }
+  // Whether the tearing step would cut on the current state (stop_due read its forces and reactions).
+  bool tear_due_now() { return tension_rays_would_tear(tearing_params, candidates, sheet, tearing_scratch); }
 
   // A substep over which a taut strip's pull jumped (a start at the strain limit: 1.9 → 5.5 N in one of
   // start-finger's substeps) stops where Griffith's criterion was already passed partway through it. An
@@ -354,8 +363,8 @@ struct Simulation::Impl {
   // state the substep started from (stop_before) and the one it reached, until the fingers' reactions
   // differ by at most kStopForceResolution across the bracket, and leave the earliest stopping state found.
   // Returns its finger-motion fraction between `before` and `after`.
-  static constexpr double kStopForceResolution = 0.25;  // N
-  static constexpr int kMaxStopRefinements = 4;
+  static constexpr double kStopForceResolution = 0.02;  // N
+  static constexpr int kMaxStopRefinements = 8;
   double refine_stop(double before, double after) {
     std::vector<Vec3>& x = sheet.verts.x;
     stop_after = x;

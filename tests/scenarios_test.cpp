@@ -206,6 +206,52 @@ TEST(Scenarios, StartForceDoesNotDependOnTheSubsteps) {
   }
 }
 
+// The trouser test (scenarios/trouser-pull.json: a 4 x 12 cm strip slit 6 cm, its legs pulled one up
+// and one down): Griffith's criterion with Er = ‖P_L − P_R‖ cos(θ/2) / e starts the tear when each finger
+// holds Ef·e/2 (fibre floor 1, so Ef = c everywhere: 1.25 N; θ = 21° between the legs' fingers seen from
+// the slit's end adds 1.6%), and the tip, D·Ef, advances when they hold D·Ef·e/2 (0.19 N). Both on three
+// meshes (seed and rotation) at three densities: what starts and drives the tear is the fingers' pull,
+// not the triangles at the tip.
+TEST(Scenarios, TrouserPullStartsAtHalfEfTimesThicknessOnEveryMesh) {
+  const Scenario base = load_scenario(scenario_path("trouser-pull.json"));
+  ASSERT_EQ(base.material.fiber_floor, 1.0);
+  const double start = base.material.fracture_c * base.material.thickness / 2;
+  const double advance = base.material.tip_damage * start;
+  for (const int32_t triangles : {150, 300, 600})
+    for (const uint64_t mesh : {0, 1, 2}) {
+      Scenario s = base;
+      s.triangles = triangles;
+      s.mesh_seed = mesh;
+      s.mesh_rotation_deg = 17.0 * static_cast<double>(mesh);
+      EngineOptions o;
+      o.threads = 1;
+      Simulation sim(s, o);
+      const std::string what = std::to_string(triangles) + " triangles, mesh " + std::to_string(mesh);
+      auto held = [&] {
+        double most = 0;
+        for (const Finger& f : sim.sheet().fingers) most = std::max(most, f.max_force);
+        return most;
+      };
+      while (sim.frame() < s.sim.frames && sim.sheet().tears.empty()) sim.step();
+      ASSERT_EQ(sim.sheet().tears.size(), 1u) << what;
+      EXPECT_NEAR(held(), start, 0.05 * start) << what;
+      // While the tear runs down the strip, until the legs come apart.
+      double running = 0;
+      int32_t frames_running = 0;
+      while (sim.frame() < s.sim.frames && sim.sheet().topo.piece_count == 1) {
+        sim.step();
+        for (const Finger& f : sim.sheet().fingers) running = std::max(running, f.reaction.norm());
+        ++frames_running;
+      }
+      EXPECT_EQ(sim.sheet().topo.piece_count, 2) << what;
+      EXPECT_GT(frames_running, 10) << what << ": the tear ran away";
+      EXPECT_GT(running, 0.5 * advance) << what;
+      EXPECT_LT(running, 1.1 * advance) << what;
+      EXPECT_EQ(sim.sheet().tears.size(), 1u) << what;
+      for (const Finger& f : sim.sheet().fingers) EXPECT_EQ(f.slips, 0) << what;
+    }
+}
+
 // A pull that asks more of the pinch than its grip: with a vice-like grip the fingers of the twisted U
 // hold far more than a hand's 15 N; with the default grip the paper slides through them instead (slips
 // counted), and the sheet stays valid.

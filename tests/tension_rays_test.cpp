@@ -189,6 +189,58 @@ TEST(TensionRays, PathBendsAroundANotchCorner) {
   EXPECT_NEAR((r.direction - hyperbola_tangent(P, A, C)).norm(), 0, 1e-9);
 }
 
+// A trouser's slit cut 1 mm wide (a blunt end with two corners): from the end's left corner the path to
+// the right leg's finger first runs 1 mm along the end, across the tear's line. Its bearing skips that
+// corner (closer than bearing_length), so θ is the angle between the legs' fingers seen from the end and
+// the tear runs straight down the slit's line; read from the first segment (bearing_length 0) θ would be
+// ~100° and Er 35% short. A slot as wide as the bearing length keeps its corner: a real feature.
+TEST(TensionRays, ABluntSlitEndDoesNotSteerTheTear) {
+  auto trouser = [](double width) {
+    const double l = 0.02 - 0.5 * width, r = 0.02 + 0.5 * width;
+    MeshRequest req;
+    req.outline = {{0, 0}, {0.04, 0}, {0.04, 0.12}, {r, 0.12}, {r, 0.06}, {l, 0.06}, {l, 0.12}, {0, 0.12}};
+    req.required_points = {{0.01, 0.115}, {0.03, 0.115}};
+    req.target_triangles = 300;
+    Sheet s;
+    std::vector<int32_t> held;
+    mesh_outline(req, s.verts.rest, s.tris.tri, held);
+    s.verts.resize(static_cast<int32_t>(s.verts.rest.size()));
+    s.tris.resize(static_cast<int32_t>(s.tris.tri.size()));
+    refresh_after_topology_change(s);
+    return s;
+  };
+  const Vec2 A(0.01, 0.115), B(0.03, 0.115);
+  {
+    const Sheet s = trouser(0.001);
+    const Vec2 P(0.0195, 0.06);
+    const TensionRays r = rays_at(s, vertex_at(s, P), {{A, 1.0}, {B, 1.0}});
+    ASSERT_EQ(r.rays.size(), 2u);
+    EXPECT_NEAR((r.rays[1].direction - Vec2(1, 0)).norm(), 0, 1e-9);  // along the slit's end
+    EXPECT_NEAR((r.rays[1].bearing - (B - P).normalized()).norm(), 0, 1e-9);
+    ASSERT_TRUE(r.valid);
+    EXPECT_NEAR(r.theta, angle_at(P, A, B), 1e-9);
+    EXPECT_NEAR((r.direction + ((A - P).normalized() + (B - P).normalized()).normalized()).norm(), 0, 1e-9);
+    EXPECT_LT(r.direction.y(), -0.99);
+    EXPECT_NEAR(r.energy_release, 2.0 * std::cos(0.5 * angle_at(P, A, B)) / kThickness, 1e-6);
+
+    TensionRaysScratch scratch;
+    TensionRays first_segment;
+    TensionRaysParams rp = params();
+    rp.bearing_length = 0;
+    std::vector<LoadPoint> loads{{vertex_at(s, A), Vec3(0, 0, 1)}, {vertex_at(s, B), Vec3(0, 0, -1)}};
+    compute_tension_rays(s.verts.rest, s.tris.piece, s.topo, vertex_at(s, P), loads, rp, scratch, first_segment);
+    EXPECT_GT(first_segment.theta, 1.5);
+  }
+  {
+    const Sheet s = trouser(0.01);
+    const Vec2 P(0.015, 0.06), C(0.025, 0.06);
+    const TensionRays r = rays_at(s, vertex_at(s, P), {{A, 1.0}, {B, 1.0}});
+    ASSERT_EQ(r.rays.size(), 2u);
+    EXPECT_EQ(r.rays[1].first_corner, vertex_at(s, C));
+    EXPECT_NEAR((r.rays[1].bearing - Vec2(1, 0)).norm(), 0, 1e-9);
+  }
+}
+
 // A tear cut by the remesher (systems/remeshing.hpp): up from the bottom edge along grid vertices, then
 // turning 45° right across the cells' diagonals (split at their middles, so the lips stay straight: on
 // a jittered grid the remesher snaps the cut to nearby vertices and the lips zigzag, which moves the

@@ -65,6 +65,16 @@ PropagationDecision decide_edge_start(const Sheet& sheet, int32_t p, double frac
   rp.thickness = propagation.thickness;
   compute_tension_rays(sheet.verts.rest, sheet.tris.piece, sheet.topo, p, scratch.loads, rp, scratch.rays,
                        scratch.result);
+  // What loads the edge is what the fingers holding p's piece pull: its tension over start_length cannot
+  // carry more than their reactions in all, Er ≤ Σ‖R_j‖ / e, the bound of the rays' Er. Without it an edge
+  // folded sharply while its fingers hold 0.1 N (a trouser's body as its legs tear apart) read a start
+  // from the fold's membrane strain.
+  double held = 0;
+  for (const LoadRay& r : scratch.result.rays) held += r.weight;
+  if (!(held / propagation.thickness >= fracture_energy)) {
+    d.griffith = false;
+    return d;
+  }
   d.angle = scratch.result.theta;
   // Across the edge's tension: the inward normal (the sheet lies left of prev → p → next).
   d.direction = scratch.result.valid ? scratch.result.direction : Vec2(-edge.tangent.y(), edge.tangent.x());

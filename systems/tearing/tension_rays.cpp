@@ -75,18 +75,31 @@ SideSums sum_sides(const std::vector<LoadRay>& rays) {
   SideSums s;
   for (const LoadRay& r : rays) {
     if (r.side > 0) {
-      s.left += r.weight * r.direction;
+      s.left += r.weight * r.bearing;
       s.left_force += r.weight;
       s.left_pull += r.reaction;
       ++s.left_count;
     } else if (r.side < 0) {
-      s.right += r.weight * r.direction;
+      s.right += r.weight * r.bearing;
       s.right_force += r.weight;
       s.right_pull += r.reaction;
       ++s.right_count;
     }
   }
   return s;
+}
+
+// The direction from p to the first point of `path` (its corners, then the target) at least `length`
+// from p, the target when none is.
+Vec2 load_bearing(const PatternPaths& paths, const PatternPath& path, const Vec2& p, double length) {
+  if (path.point_end <= path.point_begin) return path.first_direction;
+  Vec2 d = Vec2::Zero();
+  for (int32_t k = path.point_begin; k < path.point_end; ++k) {
+    d = paths.points[k] - p;
+    if (d.norm() >= length) break;
+  }
+  const double n = d.norm();
+  return n > 0 ? Vec2(d / n) : path.first_direction;
 }
 
 }  // namespace
@@ -147,8 +160,9 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
     r.straight = path.straight;
     r.path_length = path.length;
     r.first_corner = path.first_corner;
-    r.direction = path.first_direction;
+    r.direction = r.bearing = path.first_direction;
     if (!path.reachable) ++out.ignored;
+    else r.bearing = load_bearing(out.paths, path, rest[p], params.bearing_length);
   }
 
   // Eq. 4 in the pattern: b0 the interior bisector at p, then b_i the bisector line of the two sides'

@@ -37,6 +37,9 @@ struct TensionRaysParams {
   double opposite_tolerance = 1e-9;  // |u_L + u_R| below this: no direction (θ ≈ π)
   double angle_tolerance = 1e-9;     // rad: t this close to a boundary direction at p is not into the material
   Vec2 previous_direction = Vec2::Zero();  // a tip's last segment (unit), zero at a start: orients t
+  // The length over which a load's bearing is read (see LoadRay::bearing): notch features smaller than
+  // this (a 1 mm-wide slit's flat end) do not steer the tear or weaken Er.
+  double bearing_length = 0.005;  // m
   PatternPathParams paths;
 };
 
@@ -51,7 +54,11 @@ enum class TensionRaysStatus : uint8_t {
 // One load point of p's piece.
 struct LoadRay {
   int32_t load = -1;               // index into the loads given
-  Vec2 direction = Vec2::Zero();   // g_j (unit, pattern)
+  Vec2 direction = Vec2::Zero();   // g_j (unit, pattern): the path's first segment, which tells the side
+  // The load's bearing, what u_L, u_R and θ are made of: the direction from p to the path's first corner
+  // at least bearing_length away (the load point itself when none is). At a blunt notch's corner the path
+  // to the far leg first runs along the notch's end, across the tear's line; its bearing is that leg's.
+  Vec2 bearing = Vec2::Zero();
   double weight = 0;               // w_j = ‖R_j‖
   Vec3 reaction = Vec3::Zero();    // R_j
   double path_length = 0;          // m
