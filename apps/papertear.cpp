@@ -19,8 +19,6 @@
 
 #include <CLI/CLI.hpp>
 #include <fcntl.h>
-#include <oneapi/tbb/info.h>
-#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -268,25 +266,6 @@ std::string gigabytes(double bytes) {
   return buf;
 }
 
-// A batch runs up to --threads sheets at once (capped at the CPUs): their estimated memory (the mesh may
-// have 20% more triangles than asked) must fit what the process may use, the machine's memory or a lower
-// address-space limit (ulimit -v), which a sheet alone at the scenario cap does.
-void check_memory_for_batch(int32_t at_once, int32_t triangles) {
-  double usable = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGE_SIZE));
-  const char* what = "the machine has ";
-  rlimit limit{};
-  if (::getrlimit(RLIMIT_AS, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY &&
-      static_cast<double>(limit.rlim_cur) < usable) {
-    usable = static_cast<double>(limit.rlim_cur);
-    what = "the process may use (ulimit -v) ";
-  }
-  const double need = at_once * pt::estimated_sheet_bytes(static_cast<int64_t>(triangles) * 6 / 5);
-  if (!(usable > 0) || need <= usable) return;
-  throw UsageError("--threads: " + plural(at_once, "sheet") + " of " + plural(triangles, "triangle") +
-                   " at once would take about " + gigabytes(need) + " of memory, " + what + gigabytes(usable) +
-                   " (fewer --threads or triangles)");
-}
-
 // --obj writes every frame: refused before the run when the estimate does not fit the free space of the
 // disk that will hold `dir` (19 GB in 10 minutes of a small sheet's frames filled disks unasked).
 void check_space_for_obj(const fs::path& dir, double estimate, int32_t frames, int32_t triangles) {
@@ -300,27 +279,6 @@ void check_space_for_obj(const fs::path& dir, double estimate, int32_t frames, i
                    gigabytes(static_cast<double>(space.available)) + " free (fewer --frames, or no --obj)");
 }
 
-// TBB gives an arena at most its default concurrency (the CPUs this process may use) once it has made its
-// workers for a first, default one, as it has by the time the engine's arena starts: asked for more, it
-// printed its own "TBB Warning: The number of workers is currently limited to 1 ..." on stderr, and the
-// summary claimed threads that never ran. Honouring the request instead (a global_control) made 761 threads
-// for 1000 on 2 CPUs and ran 27 times slower (7.0 s against 0.26 s, 200 small parallel_for in a test
-// program). So --threads is capped there and the summary says so; results are the same at any count.
-struct ThreadCount {
-  int32_t asked = 1;
-  int32_t used = 1;
-};
-
-ThreadCount usable_threads(int32_t asked) {
-  return {asked, std::min(asked, std::max(1, static_cast<int32_t>(tbb::info::default_concurrency())))};
-}
-
-// "" or, when capped, "--threads 1000 capped at the 2 CPUs available".
-std::string threads_cap_note(const ThreadCount& t) {
-  if (t.used >= t.asked) return "";
-  return "--threads " + std::to_string(t.asked) + " capped at the " + plural(t.used, "CPU") + " available";
-}
-
 // --out "" given on the command line: refused rather than read as "the default".
 void check_out_given(bool given, const std::string& out) {
   if (given && out.empty()) throw UsageError("--out: empty directory name (omit --out for the default)");
@@ -332,7 +290,7 @@ int run_command(const RunOptions& opt) {
   if (opt.frames >= 0) scenario.sim.frames = opt.frames;
   OutputDir out(opt.out.empty() ? fs::path("out") / scenario.name : fs::path(opt.out));
 
-  const ThreadCount threads = usable_threads(opt.threads);
+  const pt::ThreadCount threads = pt::usable_threads(opt.threads);
   pt::EngineOptions engine;
   engine.threads = threads.used;
   g_stop_signal = 0;
@@ -405,7 +363,7 @@ int run_command(const RunOptions& opt) {
   out.commit();
 
   const pt::Sheet& sheet = sim.sheet();
-  const std::string cap = threads_cap_note({threads.asked, sim.threads()});
+  const std::string cap = pt::threads_cap_note({threads.asked, sim.threads()});
   std::printf("%s: %s, %s, %s, %s, %.3f ms/frame (%s%s%s)\n", scenario.name.c_str(), plural(sim.frame(), "frame").c_str(),
               plural(sheet.tris.size(), "triangle").c_str(), plural(static_cast<int64_t>(sheet.tears.size()), "tear").c_str(),
               plural(sheet.topo.piece_count, "piece").c_str(), sim.timings().frame.avg(),
@@ -430,7 +388,7 @@ int check_command(const std::string& path, const std::vector<std::string>& setti
 pt::BatchOptions batch_options(const BatchCli& cli) {
   pt::BatchOptions options;
   options.sheets = cli.sheets;
-  const ThreadCount threads = usable_threads(cli.threads);
+  const pt::ThreadCount threads = pt::usable_threads(cli.threads);
   options.threads = threads.used;
   options.frames = cli.frames;
   options.fixed_seeds = cli.fixed_seeds;
@@ -536,7 +494,7 @@ int batch_command_on_ranks(const BatchCli& cli, const pt::BatchRanks& ranks) {
     }
     if (key == pt::kNoFailure) {
       try {
-        check_memory_for_batch(std::min(options.sheets, options.threads), largest);  // this rank's machine
+        pt::check_batch_memory(std::min(options.sheets, options.threads), largest);  // this rank's machine
       } catch (...) {
         key = options.sheets;
         failure = describe_current_exception(cli.scenario);
@@ -577,7 +535,7 @@ int batch_command_on_ranks(const BatchCli& cli, const pt::BatchRanks& ranks) {
     pt::abort_ranks(f.status);
   }
   if (ranks.rank != 0) return kExitOk;
-  return finish_batch(job.result, *base, *out, &job, threads_cap_note({cli.threads, job.result.threads}));
+  return finish_batch(job.result, *base, *out, &job, pt::threads_cap_note({cli.threads, job.result.threads}));
 }
 
 int batch_command(const BatchCli& cli, const pt::BatchRanks& ranks) {
@@ -594,7 +552,7 @@ int batch_command(const BatchCli& cli, const pt::BatchRanks& ranks) {
     pt::validate_batch_sheet(base, options, i);
     largest = std::max(largest, pt::batch_sheet_scenario(base, options, i).triangles);
   }
-  check_memory_for_batch(std::min(options.sheets, options.threads), largest);
+  pt::check_batch_memory(std::min(options.sheets, options.threads), largest);
   OutputDir out(batch_out_path(cli, base));
   out.create();  // before the sheets run: a bad --out fails fast
 
@@ -607,7 +565,7 @@ int batch_command(const BatchCli& cli, const pt::BatchRanks& ranks) {
       progress.update(done);
     });
   }
-  return finish_batch(result, base, out, nullptr, threads_cap_note({cli.threads, result.threads}));
+  return finish_batch(result, base, out, nullptr, pt::threads_cap_note({cli.threads, result.threads}));
 }
 
 }  // namespace

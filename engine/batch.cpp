@@ -6,6 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
@@ -206,6 +208,33 @@ void check_batch_threads(const BatchOptions& options) {
   if (options.threads < 1 || options.threads > kMaxThreads || options.threads_per_sheet > kMaxThreads)
     throw InputError("batch threads: must be 1 to " + std::to_string(kMaxThreads) + ", got " +
                      std::to_string(std::max(options.threads, options.threads_per_sheet)));
+}
+
+namespace {
+std::string plural(int64_t n, const char* word) { return std::to_string(n) + " " + word + (n == 1 ? "" : "s"); }
+
+std::string gigabytes(double bytes) {
+  char buf[32];
+  if (bytes >= 1e12) std::snprintf(buf, sizeof buf, "%.1f TB", bytes / 1e12);
+  else std::snprintf(buf, sizeof buf, "%.3g GB", bytes / 1e9);
+  return buf;
+}
+}  // namespace
+
+void check_batch_memory(int32_t at_once, int32_t triangles, const std::string& option) {
+  double usable = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGE_SIZE));
+  const char* what = "the machine has ";
+  rlimit limit{};
+  if (::getrlimit(RLIMIT_AS, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY &&
+      static_cast<double>(limit.rlim_cur) < usable) {
+    usable = static_cast<double>(limit.rlim_cur);
+    what = "the process may use (ulimit -v) ";
+  }
+  const double need = at_once * estimated_sheet_bytes(static_cast<int64_t>(triangles) * 6 / 5);
+  if (!(usable > 0) || need <= usable) return;
+  throw InputError(option + ": " + plural(at_once, "sheet") + " of " + plural(triangles, "triangle") +
+                   " at once would take about " + gigabytes(need) + " of memory, " + what + gigabytes(usable) +
+                   " (fewer " + option + " or triangles)");
 }
 
 BatchResult run_batch(const Scenario& base, const BatchOptions& options,

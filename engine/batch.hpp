@@ -80,6 +80,12 @@ void validate_batch_sheet(const Scenario& base, const BatchOptions& options, int
 // Throws InputError unless threads and threads_per_sheet are 1 to kMaxThreads.
 void check_batch_threads(const BatchOptions& options);
 
+// A batch runs up to `at_once` sheets at once (its threads, capped at the CPUs): their estimated memory (the
+// mesh may have 20% more triangles than asked) must fit what the process may use, the machine's memory or
+// a lower address-space limit (ulimit -v), which a sheet alone at the scenario cap does. Throws InputError
+// naming `option` ("--threads" on the command line, "threads" in Python) when it does not.
+void check_batch_memory(int32_t at_once, int32_t triangles, const std::string& option = "--threads");
+
 // Runs the batch. `progress(done, total)` is called from worker threads after each sheet (may be empty).
 BatchResult run_batch(const Scenario& base, const BatchOptions& options,
                       const std::function<void(int32_t, int32_t)>& progress = {});

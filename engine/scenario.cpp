@@ -738,7 +738,8 @@ double estimated_sheet_bytes(int64_t triangles) {
   return 10e6 + 375.0 * n * std::log2(n);
 }
 
-Scenario parse_scenario(const std::string& json_text, const std::string& path_for_messages) {
+namespace {
+Scenario parse_document(const std::string& json_text, const std::string& path_for_messages, bool fingers_required) {
   const std::string& file = path_for_messages;
   if (json_text.find_first_not_of(" \t\r\n") == std::string::npos)
     fail(file, "", "empty file (expected a JSON scenario object)");
@@ -774,13 +775,22 @@ Scenario parse_scenario(const std::string& json_text, const std::string& path_fo
   if (root.contains("detail")) read_detail(r, root["detail"], s.detail);
   if (root.contains("sim")) read_sim(r, root["sim"], s.sim);
   if (root.contains("tearing")) read_tearing(r, root["tearing"], s.tearing);
-  if (!root.contains("fingers")) fail(file, "fingers", "missing (at least one finger is required)");
-  read_fingers(r, root["fingers"], s.fingers);
-  if (s.fingers.empty()) fail(file, "fingers", "at least one finger is required");
+  if (!root.contains("fingers") && fingers_required) fail(file, "fingers", "missing (at least one finger is required)");
+  if (root.contains("fingers")) read_fingers(r, root["fingers"], s.fingers);
+  if (s.fingers.empty() && fingers_required) fail(file, "fingers", "at least one finger is required");
   if (root.contains("hands")) read_hands(r, root["hands"], s.hands);
 
   validate_scenario(s);
   return s;
+}
+}  // namespace
+
+Scenario parse_scenario(const std::string& json_text, const std::string& path_for_messages) {
+  return parse_document(json_text, path_for_messages, true);
+}
+
+Scenario parse_scenario_in_code(const std::string& json_text, const std::string& path_for_messages) {
+  return parse_document(json_text, path_for_messages, false);
 }
 
 namespace {

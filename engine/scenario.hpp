@@ -99,6 +99,10 @@ Scenario load_scenario(const std::string& path);
 // into its JSON before it is read: the same checks, and an error says it came with the settings.
 Scenario load_scenario(const std::string& path, const std::vector<std::string>& settings);
 Scenario parse_scenario(const std::string& json_text, const std::string& path_for_messages);
+// parse_scenario for a scenario built in code (the Python module's Scenario): the same reading and checks,
+// except that it may have no fingers, as validate_scenario allows (a sheet falling freely, or fingers
+// attached while it runs).
+Scenario parse_scenario_in_code(const std::string& json_text, const std::string& path_for_messages);
 
 // Checks that do not depend on JSON (outline simple and CCW, fingers inside, constants positive and
 // finite, sizes sane). Throws InputError naming `s.path`. Called by parse_scenario; call it on scenarios

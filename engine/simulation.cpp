@@ -22,6 +22,7 @@
 
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/flow_graph.h>
+#include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/partitioner.h>
 #include <oneapi/tbb/task_arena.h>
@@ -663,6 +664,16 @@ ImplicitStats Simulation::solver_stats() const {
 }
 const std::vector<Candidate>& Simulation::candidates() const { return impl_->candidates; }
 int32_t Simulation::threads() const { return impl_->options.threads; }
+
+ThreadCount usable_threads(int32_t asked) {
+  return {asked, std::min(asked, std::max(1, static_cast<int32_t>(tbb::info::default_concurrency())))};
+}
+
+std::string threads_cap_note(const ThreadCount& t, const std::string& option) {
+  if (t.used >= t.asked) return "";
+  return option + std::to_string(t.asked) + " capped at the " + std::to_string(t.used) +
+         (t.used == 1 ? " CPU" : " CPUs") + " available";
+}
 std::string Simulation::state_hash() const { return hash_sheet(impl_->sheet); }
 int32_t Simulation::attach_finger(const std::string& name, const Vec2& uv) {
   Impl& m = *impl_;

@@ -12,7 +12,10 @@
 // are serialised (step() releases the GIL, not that lock). A thread that must wait for it waits without
 // the GIL, so the thread stepping can take the GIL back between frames (signals) and nothing deadlocks.
 // Numpy views are outside the lock: reading one while another thread steps sees values of either frame.
+// The module's other files: arguments (one-line errors), scenario_bindings (Scenario built in code),
+// batch_bindings (run_batch).
 #include "engine/papertear.hpp"
+#include "python/arguments.hpp"
 
 #include <nlohmann/json.hpp>
 #include <pybind11/numpy.h>
@@ -21,8 +24,10 @@
 
 #include <array>
 #include <atomic>
-#include <memory>
 #include <cstdint>
+#include <filesystem>
+#include <map>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -30,6 +35,7 @@
 
 namespace py = pybind11;
 using namespace pybind11::literals;
+using namespace papertear_py;
 
 namespace {
 
@@ -53,13 +59,6 @@ py::list points(const std::vector<pt::Vec2>& ps) {
 
 py::dict stat(const pt::TimingStat& s) { return py::dict("avg"_a = s.avg(), "max"_a = s.max, "count"_a = s.count); }
 
-pt::Scenario scenario_from(const py::object& src) {
-  if (py::isinstance<pt::Scenario>(src)) return src.cast<pt::Scenario>();
-  // str or os.PathLike
-  const std::string path = py::str(py::module_::import("os").attr("fspath")(src));
-  return pt::load_scenario(path);
-}
-
 // The Python Simulation: the engine plus the storage views may still point to, and the lock that
 // serialises the threads using it.
 struct PySim {
@@ -70,6 +69,9 @@ struct PySim {
   std::vector<std::vector<pt::Vec2>> old_rest;
   std::vector<std::vector<pt::Tri>> old_tri;
   std::vector<std::vector<int32_t>> old_piece;
+  // write_obj(textured=True)'s writer per directory: paper.png once, a carved atlas when carving changed,
+  // as `papertear run --obj` writes its frames.
+  std::map<std::string, std::unique_ptr<pt::TexturedObjWriter>> obj_writers;
 
   // Before anything that may add vertices or triangles: at least 2n + 1024 free rows, else grow to
   // 4n + 1024 (amortised; the graveyard is at most about the final size).
@@ -129,6 +131,26 @@ int32_t finger_index(const PySim& p, int64_t finger, const char* call) {
   return static_cast<int32_t>(finger);
 }
 
+// A writer's call on the flushed simulation, the lock held and the GIL released; a file that cannot be
+// written is an OSError with the writer's message.
+template <typename Write>
+void write_flushed(PySim& p, const Write& write) {
+  const SimLock lock(p);
+  bool failed = false;
+  std::string error;
+  {
+    py::gil_scoped_release release;
+    p.sim->flush();
+    try {
+      write(*p.sim);
+    } catch (const std::exception& e) {
+      failed = true;
+      error = e.what();
+    }
+  }
+  if (failed) raise_os_error(error);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(papertear, m) {
@@ -139,38 +161,8 @@ PYBIND11_MODULE(papertear, m) {
   py::register_exception<pt::InputError>(m, "InputError", PyExc_ValueError);
   py::register_exception<pt::GeometryError>(m, "GeometryError", PyExc_ValueError);
 
-  py::class_<pt::Scenario>(m, "Scenario", "A scenario (docs/scenario-format.md), loaded and validated.")
-      .def_readwrite("name", &pt::Scenario::name)
-      .def_readonly("path", &pt::Scenario::path)
-      .def_readonly("description", &pt::Scenario::description)
-      .def_readwrite("triangles", &pt::Scenario::triangles)
-      .def_readwrite("mesh_seed", &pt::Scenario::mesh_seed)
-      .def_readwrite("mesh_rotation_deg", &pt::Scenario::mesh_rotation_deg)
-      .def_property(
-          "frames", [](const pt::Scenario& s) { return s.sim.frames; },
-          [](pt::Scenario& s, int32_t n) { s.sim.frames = n; })
-      .def_property(
-          "fps", [](const pt::Scenario& s) { return s.sim.fps; }, [](pt::Scenario& s, double v) { s.sim.fps = v; })
-      .def_property(
-          "relaxation", [](const pt::Scenario& s) { return s.sim.relaxation; },
-          [](pt::Scenario& s, const std::string& v) { s.sim.relaxation = v; },
-          "sim.relaxation: \"substep\", \"next_frame\" or \"patch\" (checked by validate())")
-      .def_property(
-          "relaxation_radius", [](const pt::Scenario& s) { return s.sim.relaxation_radius; },
-          [](pt::Scenario& s, double v) { s.sim.relaxation_radius = v; }, "sim.relaxation_radius, m")
-      .def_property(
-          "fiber_seed", [](const pt::Scenario& s) { return s.material.fiber_seed; },
-          [](pt::Scenario& s, uint64_t v) { s.material.fiber_seed = v; })
-      .def_property_readonly("outline", [](const pt::Scenario& s) { return points(s.outline); })
-      .def_property_readonly("fingers",
-                             [](const pt::Scenario& s) {
-                               py::list out;
-                               for (const pt::FingerSpec& f : s.fingers)
-                                 out.append(py::dict("name"_a = f.name, "at"_a = py::make_tuple(f.at.x(), f.at.y())));
-                               return out;
-                             })
-      .def("validate", &pt::validate_scenario, "Raises InputError when a value set in code is invalid.")
-      .def("__repr__", [](const pt::Scenario& s) { return "<papertear.Scenario '" + s.name + "'>"; });
+  bind_scenario(m);
+  bind_batch(m);
 
   m.def(
       "load_scenario",
@@ -184,14 +176,11 @@ PYBIND11_MODULE(papertear, m) {
   py::class_<PySim>(m, "Simulation",
                     "One simulated sheet. Threads may share it: its calls take turns (a call waits for the "
                     "one in progress, step(n) included).")
-      .def(py::init([](const py::object& src, int32_t threads, bool check_invariants) {
-             if (threads < 1 || threads > pt::kMaxThreads)
-               throw py::value_error("threads must be 1 to " + std::to_string(pt::kMaxThreads) + ", got " +
-                                     std::to_string(threads));
+      .def(py::init([](py::handle src, py::handle threads, py::handle check_invariants) {
              pt::EngineOptions options;
-             options.threads = threads;
-             options.check_invariants = check_invariants;
-             pt::Scenario scenario = scenario_from(src);
+             options.threads = threads_arg(threads);
+             options.check_invariants = bool_arg(check_invariants, "check_invariants");
+             const pt::Scenario scenario = scenario_arg(src, "scenario");
              auto p = std::make_unique<PySim>();
              {
                py::gil_scoped_release release;
@@ -201,10 +190,12 @@ PYBIND11_MODULE(papertear, m) {
              return p;
            }),
            "scenario"_a, "threads"_a = 2, "check_invariants"_a = false,
-           "From a scenario file path or a Scenario. Raises InputError / GeometryError.")
+           "From a scenario file path or a Scenario. threads: 1 to 1024, capped at the CPUs (a RuntimeWarning "
+           "says so; results are the same at any count). Raises InputError / GeometryError.")
       .def(
           "step",
-          [](PySim& p, int32_t n) {
+          [](PySim& p, py::handle frames) {
+            const auto n = static_cast<int32_t>(integer_arg(frames, "n", 0, 10'000'000));
             const SimLock lock(p);
             for (int32_t i = 0; i < n; ++i) {
               {
@@ -358,17 +349,64 @@ PYBIND11_MODULE(papertear, m) {
             return py::module_::import("json").attr("loads")(text);
           },
           "The result.json document (docs/result-format.md) as a dict; call flush() first for complete tear details.")
+      // Writers: the files of `papertear run` (docs/result-format.md), each after flush() as the command line
+      // writes them (flushing carves now what the next frame would carve beside its physics: the same state).
       .def(
           "write_result",
-          [](PySim& p, const std::string& path) {
-            const SimLock lock(p);
-            return pt::write_result_json(*p.sim, path);
+          [](PySim& p, py::handle path) {
+            const std::string file = path_arg(path, "path");
+            bool ok = false;
+            write_flushed(p, [&](const pt::Simulation& s) { ok = pt::write_result_json(s, file); });
+            return ok;
           },
-          "path"_a, "Write result.json; returns True when status is ok.")
+          "path"_a, "Write result.json (as run does); returns True when its status is ok. OSError if it cannot be written.")
+      .def(
+          "write_svg",
+          [](PySim& p, py::handle path) {
+            const std::string file = path_arg(path, "path");
+            write_flushed(p, [&](const pt::Simulation& s) { pt::write_svg(s, file); });
+          },
+          "path"_a, "Write the 2D pattern as SVG (run --svg's pattern.svg).")
+      .def(
+          "write_png",
+          [](PySim& p, py::handle path) {
+            const std::string file = path_arg(path, "path");
+            write_flushed(p, [&](const pt::Simulation& s) {
+              pt::write_pattern_png(file, s.scenario().outline, s.sheet().tears, s.carve_state(), s.detail_params(),
+                                    s.fiber());
+            });
+          },
+          "path"_a, "Write the pattern at texture resolution with the detailed tears (run --png's pattern.png).")
+      .def(
+          "write_obj",
+          [](PySim& p, py::handle path, py::handle textured) {
+            const std::string file = path_arg(path, "path");
+            const bool with_texture = bool_arg(textured, "textured");
+            const std::filesystem::path target(file);
+            if (with_texture && target.extension() != ".obj")
+              throw py::value_error("write_obj: a textured frame is <stem>.obj, got " + file);
+            write_flushed(p, [&](const pt::Simulation& s) {
+              if (!with_texture) {
+                pt::write_obj(s, file);
+                return;
+              }
+              const std::filesystem::path dir = target.has_parent_path() ? target.parent_path() : ".";
+              const std::string key = std::filesystem::absolute(dir).lexically_normal().string();
+              std::unique_ptr<pt::TexturedObjWriter>& writer = p.obj_writers[key];
+              if (!writer) writer = std::make_unique<pt::TexturedObjWriter>(dir.string());
+              writer->write(s, target.stem().string());
+            });
+          },
+          "path"_a, "textured"_a = false,
+          "Write the mesh now as OBJ. textured=True: <stem>.obj + <stem>.mtl with paper.png and the carved atlas "
+          "carved_NNNN.png beside them, as run --obj writes each frame (called every frame into one directory it "
+          "writes run --obj's frames/: paper.png once, an atlas when the carving changed).")
       // Fingers.
       .def(
           "attach_finger",
-          [](PySim& p, const std::string& name, std::array<double, 2> uv) {
+          [](PySim& p, py::handle finger_name, py::handle at) {
+            const std::string name = string_arg(finger_name, "name");
+            const std::vector<double> uv = numbers_arg(at, "uv", 2);
             const SimLock lock(p);
             p.make_room();
             const int32_t i = p.sim->attach_finger(name, pt::Vec2(uv[0], uv[1]));
@@ -379,7 +417,9 @@ PYBIND11_MODULE(papertear, m) {
           "name"_a, "uv"_a, "Put a finger on the pattern point uv now; returns its index (a vertex is inserted).")
       .def(
           "move_finger",
-          [](PySim& p, int64_t finger, std::array<double, 3> x) {
+          [](PySim& p, py::handle index, py::handle target) {
+            const int64_t finger = integer_arg(index, "finger", INT64_MIN, INT64_MAX);
+            const std::vector<double> x = numbers_arg(target, "target", 3, false);
             const SimLock lock(p);
             p.sim->move_finger(finger_index(p, finger, "move_finger"), pt::Vec3(x[0], x[1], x[2]));
           },
@@ -388,7 +428,8 @@ PYBIND11_MODULE(papertear, m) {
           "does not have; InputError (a ValueError) for a target that is not finite or beyond 1000 m.")
       .def(
           "release_finger",
-          [](PySim& p, int64_t finger) {
+          [](PySim& p, py::handle index) {
+            const int64_t finger = integer_arg(index, "finger", INT64_MIN, INT64_MAX);
             const SimLock lock(p);
             p.sim->release_finger(finger_index(p, finger, "release_finger"));
           },
