@@ -143,6 +143,25 @@ void BM_MembraneForces(benchmark::State& state) {
 }
 BENCHMARK(BM_MembraneForces)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
+// The per-vertex sums of the corner forces (each vertex's fan in a fixed order), one core.
+void BM_GatherCornerForces(benchmark::State& state) {
+  Sheet sheet = build_sheet(bench::a4_scene(static_cast<int32_t>(state.range(0)), false));
+  for (int32_t i = 0; i < sheet.verts.size(); ++i) {
+    const Vec2 r = sheet.verts.rest[i];
+    sheet.verts.x[i] = Vec3(r.x() * 1.001, r.y(), 0.02 * std::sin(20 * r.x()));
+  }
+  compute_membrane_forces(sheet.verts.x, sheet.tris.tri, sheet.tris.rest_inv, sheet.tris.rest_area,
+                          membrane_params(sheet.material), 0, sheet.tris.size(), sheet.tris.corner_force);
+  const int32_t nv = sheet.verts.size();
+  for (auto _ : state) {
+    gather_corner_forces(sheet.topo, sheet.tris.tri, sheet.tris.corner_force, 0, nv, sheet.verts.force);
+    benchmark::DoNotOptimize(sheet.verts.force.data());
+  }
+  state.counters["vertices_per_s"] =
+      benchmark::Counter(static_cast<double>(nv) * state.iterations(), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_GatherCornerForces)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
 // The physics benchmarks hold every finger's vertex where the finger starts.
 void fingers_held_at_start(const Sheet& sheet, std::vector<int32_t>& held, std::vector<Vec3>& target) {
   for (const Finger& f : sheet.fingers) {
