@@ -5,6 +5,7 @@
 
 #include "engine/simulation.hpp"
 #include "systems/bending_forces.hpp"
+#include "systems/dense_kernels.hpp"
 #include "systems/integrate.hpp"
 #include "systems/integrate_implicit.hpp"
 #include "systems/membrane_forces.hpp"
@@ -13,9 +14,27 @@
 
 #include <benchmark/benchmark.h>
 
+#include <cstdio>
+#include <cstdlib>
+
 using namespace pt;
 
 namespace {
+
+// PAPERTEAR_DENSE_KERNELS=avx2 or =baseline runs the suite with that build of the factorisations' kernels
+// (systems/dense_kernels.hpp); the library reads no environment, so the suite passes it on before any
+// benchmark runs, as the command line does.
+[[maybe_unused]] const bool kKernelsFromEnvironment = [] {
+  const char* forced = std::getenv("PAPERTEAR_DENSE_KERNELS");
+  if (!forced || !*forced) return true;
+  DenseKernelChoice choice;
+  if (!dense_kernel_choice_from_name(forced, choice)) {
+    std::fprintf(stderr, "papertear_bench: PAPERTEAR_DENSE_KERNELS: unknown build \"%s\" (avx2 or baseline)\n", forced);
+    std::exit(2);
+  }
+  select_dense_kernels(choice);
+  return true;
+}();
 
 // The implicit solver's parts, ms per frame (ImplicitStats' times over the `frames` timed).
 void add_solver_ms_counters(const ImplicitStats& solver, double frames, benchmark::State& state) {
