@@ -46,8 +46,9 @@ enum class DenseKernelChoice { Fastest, Avx2, Baseline };
 // the choice from PAPERTEAR_DENSE_KERNELS with this; the library reads no environment.
 bool dense_kernel_choice_from_name(const char* name, DenseKernelChoice& choice);
 
-// Chooses the build of every factorisation that starts after the call, for the whole process (Fastest
-// until then). The bits of a factor depend on the build, so a program chooses before its simulations start.
+// Chooses the build for the whole process (Fastest until then). A program calls it before any simulation
+// runs: the factorisations read the kernels per panel, so one running during the call could mix two
+// builds, and a factor's bits depend on the build.
 void select_dense_kernels(DenseKernelChoice choice);
 
 // The kernels this process uses now (select_dense_kernels).
