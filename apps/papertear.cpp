@@ -15,6 +15,7 @@
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "engine/texture_export.hpp"
+#include "systems/dense_kernels.hpp"
 #include "systems/meshing.hpp"
 
 #include <CLI/CLI.hpp>
@@ -27,6 +28,7 @@
 #include <csignal>
 #include <regex>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <filesystem>
@@ -618,6 +620,16 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     print_error(e.what());
     return kExitInput;
+  }
+  // PAPERTEAR_DENSE_KERNELS=avx2 or =baseline forces that build of the factorisations' kernels
+  // (docs/architecture.md "Physics"); the library reads no environment, so it is passed on from here.
+  if (const char* forced = std::getenv("PAPERTEAR_DENSE_KERNELS"); forced && *forced) {
+    pt::DenseKernelChoice choice;
+    if (!pt::dense_kernel_choice_from_name(forced, choice)) {
+      print_error(std::string("PAPERTEAR_DENSE_KERNELS: unknown build \"") + forced + "\" (avx2 or baseline)");
+      return kExitInput;
+    }
+    pt::select_dense_kernels(choice);
   }
 
   run.out_given = run_out->count() > 0;

@@ -5,6 +5,7 @@
 
 #include "engine/simulation.hpp"
 #include "systems/bending_forces.hpp"
+#include "systems/dense_kernels.hpp"
 #include "systems/integrate.hpp"
 #include "systems/integrate_implicit.hpp"
 #include "systems/membrane_forces.hpp"
@@ -13,9 +14,27 @@
 
 #include <benchmark/benchmark.h>
 
+#include <cstdio>
+#include <cstdlib>
+
 using namespace pt;
 
 namespace {
+
+// PAPERTEAR_DENSE_KERNELS=avx2 or =baseline runs the suite with that build of the factorisations' kernels
+// (systems/dense_kernels.hpp); the library reads no environment, so the suite passes it on before any
+// benchmark runs, as the command line does.
+[[maybe_unused]] const bool kKernelsFromEnvironment = [] {
+  const char* forced = std::getenv("PAPERTEAR_DENSE_KERNELS");
+  if (!forced || !*forced) return true;
+  DenseKernelChoice choice;
+  if (!dense_kernel_choice_from_name(forced, choice)) {
+    std::fprintf(stderr, "papertear_bench: PAPERTEAR_DENSE_KERNELS: unknown build \"%s\" (avx2 or baseline)\n", forced);
+    std::exit(2);
+  }
+  select_dense_kernels(choice);
+  return true;
+}();
 
 // The implicit solver's parts, ms per frame (ImplicitStats' times over the `frames` timed).
 void add_solver_ms_counters(const ImplicitStats& solver, double frames, benchmark::State& state) {
@@ -142,6 +161,25 @@ void BM_MembraneForces(benchmark::State& state) {
                                                          benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_MembraneForces)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+// The per-vertex sums of the corner forces (each vertex's fan in a fixed order), one core.
+void BM_GatherCornerForces(benchmark::State& state) {
+  Sheet sheet = build_sheet(bench::a4_scene(static_cast<int32_t>(state.range(0)), false));
+  for (int32_t i = 0; i < sheet.verts.size(); ++i) {
+    const Vec2 r = sheet.verts.rest[i];
+    sheet.verts.x[i] = Vec3(r.x() * 1.001, r.y(), 0.02 * std::sin(20 * r.x()));
+  }
+  compute_membrane_forces(sheet.verts.x, sheet.tris.tri, sheet.tris.rest_inv, sheet.tris.rest_area,
+                          membrane_params(sheet.material), 0, sheet.tris.size(), sheet.tris.corner_force);
+  const int32_t nv = sheet.verts.size();
+  for (auto _ : state) {
+    gather_corner_forces(sheet.topo, sheet.tris.tri, sheet.tris.corner_force, 0, nv, sheet.verts.force);
+    benchmark::DoNotOptimize(sheet.verts.force.data());
+  }
+  state.counters["vertices_per_s"] =
+      benchmark::Counter(static_cast<double>(nv) * state.iterations(), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_GatherCornerForces)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
 // The physics benchmarks hold every finger's vertex where the finger starts.
 void fingers_held_at_start(const Sheet& sheet, std::vector<int32_t>& held, std::vector<Vec3>& target) {

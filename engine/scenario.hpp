@@ -48,8 +48,8 @@ struct SimSettings {
   int32_t substeps = 10;
   int32_t frames = 90;
   Vec3 gravity = Vec3(0, 0, -9.81);
-  int32_t iterations = 2;  // projective dynamics local/global iterations per substep
-  std::string solver = "implicit";  // "implicit" (linearly implicit corotated) or "projective"
+  int32_t iterations = 2;  // read and checked; no effect (they were the refused projective solver's)
+  std::string solver = "implicit";  // "implicit" (linearly implicit corotated); "projective" is refused
   // The relaxation after a propagation (paper Fig. 4, step 4), so that the lips move apart before the next
   // propagation: "substep" runs one more implicit substep right after the cut, then treats the frame's
   // other candidates; "next_frame" leaves it to the next frame's physics and treats no other candidate

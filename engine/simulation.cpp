@@ -192,7 +192,6 @@ struct Simulation::Impl {
                                                          : Relaxation::Substep;
     tearing_params.relaxation =
         relaxation == Relaxation::NextFrame ? TearRelaxation::NextFrame : TearRelaxation::AfterEachCut;
-    tearing_params.delaunay_flips = options.delaunay_flips;
     tearing_params.check_invariants = options.check_invariants;
     local_relaxation.radius = scenario.sim.relaxation_radius;
     tearing_params.driving_force_radius = scenario.tearing.radius;

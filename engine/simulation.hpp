@@ -80,9 +80,6 @@ struct EngineOptions {
   int32_t threads = 2;           // task arena concurrency, 1 to kMaxThreads (else InputError)
   int32_t parallel_grain = 512;  // triangles per task; smaller sheets run their kernels serially
   bool check_invariants = false; // run check_mesh_invariants after every remesh (tests, soaks)
-  // Lawson flips around each cut (systems/mesh_quality.hpp). Off by default: measured on the Fig. 14
-  // scenario over four meshes, the tears drifted further from the mediator with them (14–41 mm vs 5–24 mm).
-  bool delaunay_flips = false;
 };
 
 class Simulation {

@@ -33,14 +33,13 @@ bool candidate_kind(uint8_t flags, bool held_by_finger, StartKind& kind) {
 
 // Eq. 3: Ef(p) = c · T_fiber(u, v) · d_p with d_p = D at a tear tip and 1 elsewhere.
 // T_fiber at vertex v, from the cache when v has not moved in the pattern since it was sampled.
-double fiber_at(const FiberField& fiber, const Vertices& verts, int32_t v, FiberSampleCache* cache) {
+double fiber_at(const FiberField& fiber, const Vertices& verts, int32_t v, FiberSampleCache& cache) {
   const Vec2& uv = verts.rest[v];
-  if (!cache) return fiber_sample(fiber, uv);
-  if (cache->uv[v] != uv) {
-    cache->uv[v] = uv;
-    cache->value[v] = fiber_sample(fiber, uv);
+  if (cache.uv[v] != uv) {
+    cache.uv[v] = uv;
+    cache.value[v] = fiber_sample(fiber, uv);
   }
-  return cache->value[v];
+  return cache.value[v];
 }
 
 double fracture_energy(const Material& material, double fiber_value, bool is_tip) {
@@ -51,17 +50,18 @@ double fracture_energy(const Material& material, double fiber_value, bool is_tip
   return material.fracture_c * t * d;
 }
 
-// `boundary`: the boundary vertices in ascending order, or null to scan every vertex for kBoundary (the same
-// vertices in the same order when the list is the topology's). Nothing here is sized by the sheet: the
-// engine calls this after every propagation, and its cost should follow the boundary and the candidates.
-void find_candidates_impl(const Vertices& verts, const std::vector<int32_t>* boundary, const std::vector<Tip>& tips,
-                          const std::vector<Finger>& fingers, const Material& material, const FiberField& fiber,
-                          const std::vector<Tear>* tears, std::vector<Candidate>& out, FiberSampleCache* cache) {
+}  // namespace
+
+// Nothing here is sized by the sheet: the engine calls this after every propagation, and its cost should
+// follow the boundary and the candidates.
+void find_candidates(const Vertices& verts, const std::vector<int32_t>& boundary_vertices, const std::vector<Tip>& tips,
+                     const std::vector<Finger>& fingers, const std::vector<Tear>& tears, const Material& material,
+                     const FiberField& fiber, std::vector<Candidate>& out, FiberSampleCache& cache) {
   out.clear();
   const int32_t nv = verts.size();
-  if (cache && static_cast<int32_t>(cache->uv.size()) != nv) {
-    cache->uv.resize(nv, Vec2::Constant(std::numeric_limits<double>::quiet_NaN()));
-    cache->value.resize(nv, 0.0);
+  if (static_cast<int32_t>(cache.uv.size()) != nv) {
+    cache.uv.resize(nv, Vec2::Constant(std::numeric_limits<double>::quiet_NaN()));
+    cache.value.resize(nv, 0.0);
   }
   // Per-call lists as long as the fingers and tips, kept per thread (this runs after every propagation).
   thread_local std::vector<int32_t> held_vertices, taken;
@@ -85,8 +85,8 @@ void find_candidates_impl(const Vertices& verts, const std::vector<int32_t>* bou
     Candidate c;
     c.vertex = tip.vertex;
     c.tear = tip.tear;
-    if (tears && tip.tear >= 0 && tip.tear < static_cast<int32_t>(tears->size())) {
-      c.kind = (*tears)[tip.tear].start_kind;
+    if (tip.tear >= 0 && tip.tear < static_cast<int32_t>(tears.size())) {
+      c.kind = tears[tip.tear].start_kind;
     } else if (!candidate_kind(verts.flags[tip.vertex], held(tip.vertex), c.kind)) {
       c.kind = StartKind::Inward;  // every tear tip is an inward-angle point (paper §4.1)
     }
@@ -114,31 +114,8 @@ void find_candidates_impl(const Vertices& verts, const std::vector<int32_t>* bou
     c.fracture_energy = fracture_energy(material, fiber_at(fiber, verts, v, cache), false);
     out.push_back(c);
   };
-  if (boundary) {
-    for (int32_t v : *boundary)
-      if (v >= 0 && v < nv) consider(v);
-  } else {
-    for (int32_t v = 0; v < nv; ++v) consider(v);
-  }
-}
-
-}  // namespace
-
-void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
-                     const Material& material, const FiberField& fiber, std::vector<Candidate>& out) {
-  find_candidates_impl(verts, nullptr, tips, fingers, material, fiber, nullptr, out, nullptr);
-}
-
-void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
-                     const std::vector<Tear>& tears, const Material& material, const FiberField& fiber,
-                     std::vector<Candidate>& out) {
-  find_candidates_impl(verts, nullptr, tips, fingers, material, fiber, &tears, out, nullptr);
-}
-
-void find_candidates(const Vertices& verts, const std::vector<int32_t>& boundary_vertices, const std::vector<Tip>& tips,
-                     const std::vector<Finger>& fingers, const std::vector<Tear>& tears, const Material& material,
-                     const FiberField& fiber, std::vector<Candidate>& out, FiberSampleCache& cache) {
-  find_candidates_impl(verts, &boundary_vertices, tips, fingers, material, fiber, &tears, out, &cache);
+  for (int32_t v : boundary_vertices)
+    if (v >= 0 && v < nv) consider(v);
 }
 
 }  // namespace pt

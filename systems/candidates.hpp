@@ -16,18 +16,6 @@ struct Candidate {
   double fracture_energy = 0;          // Ef, J/m²
 };
 
-// Candidates in a deterministic order: active tips first (by tear id), then the others by vertex id.
-void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
-                     const Material& material, const FiberField& fiber, std::vector<Candidate>& out);
-
-// Same, with the tears known: an active tip's kind is the start kind of its tear. Without them (above) a
-// tip's kind comes from its flags (finger > junction > inward), Inward when it has none of them.
-// Finger vertices are those flagged kFinger or held by one of `fingers`; only boundary vertices
-// (kBoundary) are candidates, except active tips, which are always listed.
-void find_candidates(const Vertices& verts, const std::vector<Tip>& tips, const std::vector<Finger>& fingers,
-                     const std::vector<Tear>& tears, const Material& material, const FiberField& fiber,
-                     std::vector<Candidate>& out);
-
 // T_fiber at each vertex's pattern position, remembered between calls: the candidates are rebuilt after
 // every propagation (docs/architecture.md "The frame") and a bilinear sample of the procedural field costs 4
 // texels × 5 octaves of Perlin noise. An entry is used only while its vertex still sits at the same pattern
@@ -37,10 +25,13 @@ struct FiberSampleCache {
   std::vector<double> value;  // fiber_sample at uv; NaN uv marks an empty slot
 };
 
-// The engine's call: as above, over the sheet's boundary vertices (Topology::boundary_vertices, ascending)
-// instead of every vertex, so its cost follows the boundary and the candidates, not the sheet (issue 3), and
-// with the cache (in and out). Results are bit-identical to the call above while the list holds exactly
-// the vertices flagged kBoundary, which the topology refresh keeps so.
+// Candidates in a deterministic order: active tips first (by tear id), then the others by vertex id.
+// An active tip's kind is the start kind of its tear; a tip whose tear is not in `tears` takes its kind from
+// its flags (finger > junction > inward), Inward when it has none of them. Finger vertices are those
+// flagged kFinger or held by one of `fingers`; only boundary vertices are candidates, except active tips,
+// which are always listed. The boundary vertices are the sheet's list (Topology::boundary_vertices,
+// ascending; those flagged kBoundary, which the topology refresh keeps so) rather than every vertex, so the
+// cost follows the boundary and the candidates, not the sheet (issue 3). `cache` is read and updated.
 void find_candidates(const Vertices& verts, const std::vector<int32_t>& boundary_vertices, const std::vector<Tip>& tips,
                      const std::vector<Finger>& fingers, const std::vector<Tear>& tears, const Material& material,
                      const FiberField& fiber, std::vector<Candidate>& out, FiberSampleCache& cache);

@@ -1,6 +1,6 @@
 #include "systems/dense_kernels.hpp"
 
-#include <cstdlib>
+#include <atomic>
 #include <cstring>
 
 #define PT_DENSE_BUILD baseline
@@ -67,16 +67,37 @@ const DenseKernels* avx512_dense_kernels() {
 #endif
 }
 
+namespace {
+
+const DenseKernels& kernels_for(DenseKernelChoice choice) {
+  if (choice == DenseKernelChoice::Baseline) return baseline_dense_kernels();
+  if (const DenseKernels* a = avx512_dense_kernels(); a && choice == DenseKernelChoice::Fastest) return *a;
+  if (const DenseKernels* a = avx2_dense_kernels()) return *a;
+  return baseline_dense_kernels();
+}
+
+// The chosen build; null until select_dense_kernels (the fastest). Read once per factor column, so a plain
+// atomic pointer rather than a lock.
+std::atomic<const DenseKernels*> g_selected{nullptr};
+
+}  // namespace
+
+bool dense_kernel_choice_from_name(const char* name, DenseKernelChoice& choice) {
+  if (!name) return false;
+  if (std::strcmp(name, "avx2") == 0) choice = DenseKernelChoice::Avx2;
+  else if (std::strcmp(name, "baseline") == 0) choice = DenseKernelChoice::Baseline;
+  else return false;
+  return true;
+}
+
+void select_dense_kernels(DenseKernelChoice choice) {
+  g_selected.store(&kernels_for(choice), std::memory_order_release);
+}
+
 const DenseKernels& dense_kernels() {
-  static const DenseKernels& k = []() -> const DenseKernels& {
-    const char* forced = std::getenv("PAPERTEAR_DENSE_KERNELS");
-    if (forced && std::strcmp(forced, "baseline") == 0) return baseline_dense_kernels();
-    const bool avx2_only = forced && std::strcmp(forced, "avx2") == 0;
-    if (const DenseKernels* a = avx512_dense_kernels(); a && !avx2_only) return *a;
-    if (const DenseKernels* a = avx2_dense_kernels()) return *a;
-    return baseline_dense_kernels();
-  }();
-  return k;
+  if (const DenseKernels* k = g_selected.load(std::memory_order_acquire)) return *k;
+  static const DenseKernels& fastest = kernels_for(DenseKernelChoice::Fastest);
+  return fastest;
 }
 
 }  // namespace pt

@@ -36,9 +36,22 @@ struct DenseKernels {
   void (*panel_backward)(int32_t n, int32_t m, const double* l, int64_t ld, const double* t, double* y);
 };
 
-// The kernels this process uses: on a CPU with AVX-512F, the AVX2 + FMA build with its two products from
-// dense_kernels_avx512.cpp (the same bits, faster); else the AVX2 + FMA build when the CPU has both; else
-// the baseline. The environment can force PAPERTEAR_DENSE_KERNELS=avx2 or =baseline.
+// Which build the factorisations use. Fastest: on a CPU with AVX-512F, the AVX2 + FMA build with its two
+// products from dense_kernels_avx512.cpp (the same bits, faster); else the AVX2 + FMA build when the CPU has
+// both; else the baseline. Avx2: the AVX2 + FMA build without the AVX-512 products (the baseline on a CPU
+// without AVX2). Baseline: the portable Eigen build.
+enum class DenseKernelChoice { Fastest, Avx2, Baseline };
+
+// "avx2" → Avx2, "baseline" → Baseline; false for any other name. The command line and the benchmarks take
+// the choice from PAPERTEAR_DENSE_KERNELS with this; the library reads no environment.
+bool dense_kernel_choice_from_name(const char* name, DenseKernelChoice& choice);
+
+// Chooses the build for the whole process (Fastest until then). A program calls it before any simulation
+// runs: the factorisations read the kernels per panel, so one running during the call could mix two
+// builds, and a factor's bits depend on the build.
+void select_dense_kernels(DenseKernelChoice choice);
+
+// The kernels this process uses now (select_dense_kernels).
 const DenseKernels& dense_kernels();
 // Each build on its own (tests, benchmarks); the pointers are null when this CPU or build lacks it.
 const DenseKernels& baseline_dense_kernels();

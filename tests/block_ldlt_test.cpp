@@ -4,6 +4,7 @@
 // refactored with new values, indefinite and non-finite matrices that must be refused, the nested
 // dissection order, and bit-identical factors whatever the tasks, chunks and threads.
 #include "systems/block_ldlt.hpp"
+#include "systems/dense_kernels.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,16 +13,27 @@
 #include <Eigen/SparseCore>
 
 #include <algorithm>
+#include <cstdlib>
 #include <limits>
 #include <array>
 #include <map>
 #include <random>
 #include <thread>
+#include <string>
 #include <tuple>
 
 using namespace pt;
 
 namespace {
+
+// ctest runs this suite again with PAPERTEAR_DENSE_KERNELS=baseline and =avx2 (tests/CMakeLists.txt); the
+// library reads no environment, so the suite passes the choice on before any test runs, as the command line
+// does.
+[[maybe_unused]] const bool kKernelsFromEnvironment = [] {
+  DenseKernelChoice choice;
+  if (dense_kernel_choice_from_name(std::getenv("PAPERTEAR_DENSE_KERNELS"), choice)) select_dense_kernels(choice);
+  return true;
+}();
 
 using Keys = std::vector<std::pair<int32_t, int32_t>>;
 
@@ -491,4 +503,16 @@ TEST(BlockLdlt, SupernodalChunksAndTasksGiveTheBitIdenticalFactorInAnyOrder) {
   solve_block_ldlt(split, b.data(), x_split.data(), reversed_threads);
   for (int32_t i = 0; i < 3 * n; ++i) ASSERT_EQ(x_serial[i], x_split[i]) << i;
   EXPECT_LE((dense(keys, values, n) * x_split - b).norm(), 1e-11 * b.norm());
+}
+
+// The suite's factorisations run the build PAPERTEAR_DENSE_KERNELS names (the fastest without it), so the
+// ctest runs with it set cover the baseline and AVX2 builds.
+TEST(BlockLdlt, FactorisationsUseTheBuildTheEnvironmentNames) {
+  const char* named = std::getenv("PAPERTEAR_DENSE_KERNELS");
+  const DenseKernels* expected = avx512_dense_kernels() ? avx512_dense_kernels()
+                                 : avx2_dense_kernels() ? avx2_dense_kernels()
+                                                        : &baseline_dense_kernels();
+  if (named && std::string(named) == "baseline") expected = &baseline_dense_kernels();
+  if (named && std::string(named) == "avx2" && avx2_dense_kernels()) expected = avx2_dense_kernels();
+  EXPECT_EQ(&dense_kernels(), expected) << dense_kernels().name;
 }

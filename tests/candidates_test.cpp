@@ -45,6 +45,14 @@ FiberField fiber_field() {
   return f;
 }
 
+// The engine's call (engine/simulation.cpp): over the topology's boundary vertices, with a fresh T_fiber
+// cache, so every value is sampled anew. Tips whose tear is not in `tears` take their kind from their flags.
+void list_candidates(const Sheet& s, const std::vector<Tip>& tips, const std::vector<Tear>& tears,
+                     const Material& material, const FiberField& fiber, std::vector<Candidate>& out) {
+  FiberSampleCache cache;
+  find_candidates(s.verts, s.topo.boundary_vertices, tips, s.fingers, tears, material, fiber, out, cache);
+}
+
 std::vector<int32_t> vertices_of(const std::vector<Candidate>& c) {
   std::vector<int32_t> v;
   for (const Candidate& k : c) v.push_back(k.vertex);
@@ -68,7 +76,7 @@ TEST(Candidates, NotchApexIsTheOnlyInwardPoint) {
   ASSERT_EQ(check_mesh_invariants(s, 7.8 * 0.05 * 0.05), "");
   const FiberField fiber = fiber_field();
   std::vector<Candidate> out;
-  find_candidates(s.verts, s.tips, s.fingers, s.material, fiber, out);
+  list_candidates(s, s.tips, {}, s.material, fiber, out);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].vertex, 5);
   EXPECT_EQ(out[0].kind, StartKind::Inward);
@@ -92,7 +100,7 @@ TEST(Candidates, KindsAndOrderOfBoundaryPoints) {
   s.fingers.push_back(held);
   const FiberField fiber = fiber_field();
   std::vector<Candidate> out;
-  find_candidates(s.verts, s.tips, s.fingers, s.material, fiber, out);
+  list_candidates(s, s.tips, {}, s.material, fiber, out);
   EXPECT_EQ(vertices_of(out), (std::vector<int32_t>{1, 2, 3, 5, 7}));
   ASSERT_EQ(out.size(), 5u);
   EXPECT_EQ(out[0].kind, StartKind::Junction);
@@ -119,13 +127,13 @@ TEST(Candidates, ActiveTipsFirstWithDamage) {
   const FiberField fiber = fiber_field();
 
   std::vector<Candidate> out;
-  find_candidates(s.verts, s.tips, s.fingers, s.material, fiber, out);
+  list_candidates(s, s.tips, {}, s.material, fiber, out);
   EXPECT_EQ(vertices_of(out), (std::vector<int32_t>{6, 5, 7}));
   ASSERT_EQ(out.size(), 3u);
   EXPECT_EQ(out[0].tear, 0);
   EXPECT_EQ(out[1].tear, 2);
   EXPECT_EQ(out[2].tear, -1);
-  // Without the tears a tip's kind comes from its flags: 6 has none (a tip is an inward point), 5 is inward.
+  // With no tears given a tip's kind comes from its flags: 6 has none (a tip is an inward point), 5 is inward.
   EXPECT_EQ(out[0].kind, StartKind::Inward);
   EXPECT_EQ(out[1].kind, StartKind::Inward);
   EXPECT_EQ(out[2].kind, StartKind::Finger);
@@ -140,7 +148,7 @@ TEST(Candidates, ActiveTipsFirstWithDamage) {
 
   // With the tears, a tip's kind is its tear's start kind.
   std::vector<Candidate> with_tears;
-  find_candidates(s.verts, s.tips, s.fingers, s.tears, s.material, fiber, with_tears);
+  list_candidates(s, s.tips, s.tears, s.material, fiber, with_tears);
   ASSERT_EQ(with_tears.size(), 3u);
   EXPECT_EQ(with_tears[0].kind, StartKind::Finger);
   EXPECT_EQ(with_tears[1].kind, StartKind::Junction);
@@ -148,7 +156,7 @@ TEST(Candidates, ActiveTipsFirstWithDamage) {
   // Deterministic: the order of `tips` does not matter, and `out` is replaced, not appended to.
   std::vector<Tip> reversed(s.tips.rbegin(), s.tips.rend());
   std::vector<Candidate> again = out;
-  find_candidates(s.verts, reversed, s.fingers, s.material, fiber, again);
+  list_candidates(s, reversed, {}, s.material, fiber, again);
   ASSERT_EQ(again.size(), out.size());
   for (size_t i = 0; i < out.size(); ++i) {
     EXPECT_EQ(again[i].vertex, out[i].vertex);
@@ -156,8 +164,9 @@ TEST(Candidates, ActiveTipsFirstWithDamage) {
   }
 }
 
-// The per-vertex T_fiber cache gives bit for bit the uncached Ef, and follows a vertex that moved in the
-// pattern or was renumbered (remeshing swaps vertices) instead of returning a stale value.
+// The per-vertex T_fiber cache kept between calls gives bit for bit the Ef of a fresh one, and follows a
+// vertex that moved in the pattern or was renumbered (remeshing swaps vertices) instead of returning a
+// stale value.
 TEST(Candidates, FiberCacheMatchesUncachedAndFollowsMovedVertices) {
   Sheet s = notched_sheet();
   s.tips = {Tip{5, 0, Vec2::Zero()}};
@@ -168,7 +177,7 @@ TEST(Candidates, FiberCacheMatchesUncachedAndFollowsMovedVertices) {
     if (round == 2) s.verts.rest[6] += Vec2(0.0031, -0.0017);              // a vertex at a new point
     std::vector<Candidate> cached, plain;
     find_candidates(s.verts, s.topo.boundary_vertices, s.tips, s.fingers, s.tears, s.material, fiber, cached, cache);
-    find_candidates(s.verts, s.tips, s.fingers, s.tears, s.material, fiber, plain);
+    list_candidates(s, s.tips, s.tears, s.material, fiber, plain);
     ASSERT_EQ(cached.size(), plain.size());
     for (size_t i = 0; i < plain.size(); ++i) {
       EXPECT_EQ(cached[i].vertex, plain[i].vertex);
@@ -183,15 +192,15 @@ TEST(Candidates, FractureEnergyScalesWithMaterial) {
   s.tips = {Tip{5, 0, Vec2::Zero()}};
   const FiberField fiber = fiber_field();
   std::vector<Candidate> a, b;
-  find_candidates(s.verts, s.tips, s.fingers, s.material, fiber, a);
+  list_candidates(s, s.tips, {}, s.material, fiber, a);
   Material m = s.material;
   m.fracture_c *= 3;
-  find_candidates(s.verts, s.tips, s.fingers, m, fiber, b);
+  list_candidates(s, s.tips, {}, m, fiber, b);
   ASSERT_EQ(a.size(), 1u);
   ASSERT_EQ(b.size(), 1u);
   EXPECT_NEAR(b[0].fracture_energy, 3 * a[0].fracture_energy, 1e-12 * b[0].fracture_energy);
   m.tip_damage = 0;
-  find_candidates(s.verts, s.tips, s.fingers, m, fiber, b);
+  list_candidates(s, s.tips, {}, m, fiber, b);
   EXPECT_EQ(b[0].fracture_energy, 0.0);
 }
 
@@ -210,7 +219,7 @@ TEST(Candidates, LipVerticesAreNotJunctionsAndFloorZeroIsEquationThree) {
   s.material.fiber_floor = 0;
   FiberField fiber;
   std::vector<Candidate> out;
-  find_candidates(s.verts, {}, {}, s.material, fiber, out);
+  list_candidates(s, {}, {}, s.material, fiber, out);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].vertex, 1);
   EXPECT_EQ(out[0].kind, StartKind::Junction);

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <random>
 #include <vector>
 
@@ -208,13 +210,39 @@ TEST(DenseKernels, CholeskyRefusesWhatIsNotPositiveDefinite) {
   }
 }
 
-TEST(DenseKernels, ThisCpuUsesTheFastestBuildItHas) {
+const DenseKernels& fastest_build() {
+  if (const DenseKernels* a = avx512_dense_kernels()) return *a;
+  if (const DenseKernels* a = avx2_dense_kernels()) return *a;
+  return baseline_dense_kernels();
+}
+
+// The library reads no environment: the programs pass PAPERTEAR_DENSE_KERNELS on with
+// select_dense_kernels. A variable set before the process's first factorisation (this test is the suite's
+// first use of dense_kernels()) changes nothing.
+TEST(DenseKernels, ThisCpuUsesTheFastestBuildItHasWhateverTheEnvironment) {
+  ASSERT_EQ(setenv("PAPERTEAR_DENSE_KERNELS", "baseline", 1), 0);
   const DenseKernels& k = dense_kernels();
-  if (std::getenv("PAPERTEAR_DENSE_KERNELS")) GTEST_SKIP() << "forced by the environment";
-  if (avx512_dense_kernels()) EXPECT_EQ(&k, avx512_dense_kernels());
-  else if (avx2_dense_kernels()) EXPECT_EQ(&k, avx2_dense_kernels());
-  else EXPECT_EQ(&k, &baseline_dense_kernels());
+  unsetenv("PAPERTEAR_DENSE_KERNELS");
+  EXPECT_EQ(&k, &fastest_build()) << k.name;
   std::printf("dense kernels: %s\n", k.name);
+}
+
+// What each choice selects, named as PAPERTEAR_DENSE_KERNELS names them.
+TEST(DenseKernels, SelectedBuildIsTheOneUsed) {
+  DenseKernelChoice choice = DenseKernelChoice::Fastest;
+  ASSERT_TRUE(dense_kernel_choice_from_name("baseline", choice));
+  EXPECT_EQ(choice, DenseKernelChoice::Baseline);
+  select_dense_kernels(choice);
+  EXPECT_EQ(&dense_kernels(), &baseline_dense_kernels());
+  ASSERT_TRUE(dense_kernel_choice_from_name("avx2", choice));
+  EXPECT_EQ(choice, DenseKernelChoice::Avx2);
+  select_dense_kernels(choice);
+  EXPECT_EQ(&dense_kernels(), avx2_dense_kernels() ? avx2_dense_kernels() : &baseline_dense_kernels());
+  select_dense_kernels(DenseKernelChoice::Fastest);
+  EXPECT_EQ(&dense_kernels(), &fastest_build());
+  for (const char* bad : {"", "AVX2", "avx512", "fastest"})
+    EXPECT_FALSE(dense_kernel_choice_from_name(bad, choice)) << bad;
+  EXPECT_FALSE(dense_kernel_choice_from_name(nullptr, choice));
 }
 
 // The AVX-512 products promise the AVX2 build's bits (a factor must not depend on which of the two a CPU

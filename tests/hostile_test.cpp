@@ -4,10 +4,7 @@
 // clear error (one line); it never crashes, hangs (each case well under 60 s) or produces a NaN; the state
 // hash is the same at 1 and 2 threads. The invariants of docs/architecture.md "Data and its invariants" are
 // checked after every remesh.
-//
-// Also the soak (DISABLED_: run by `make soak` / scripts/soak.sh with --gtest_also_run_disabled_tests):
-// 10 000 frames of tests/soak/soak.json, NaN check every frame, per-1000-frame frame time, triangle count
-// and memory (getrusage peak RSS).
+// The soak (`make soak`, 10 000 frames of tests/soak/soak.json) is a program: tools/soak.cpp.
 #include "engine/batch.hpp"
 #include "engine/result_writer.hpp"
 #include "engine/scenario.hpp"
@@ -19,14 +16,11 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include <sys/resource.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <functional>
 #include <iterator>
 #include <limits>
@@ -389,95 +383,6 @@ TEST(Hostile, TearRunsIntoAnotherAtGrazingAnglePulled) {
     {"name": "A", "at": [0.05, 0.08], "keys": [[0, [0.05, 0.08, 0]], [1.5, [0.05, 0.11, 0.08]]]},
     {"name": "B", "at": [0.05, 0.02], "keys": [[0, [0.05, 0.02, 0]], [1.5, [0.05, -0.01, -0.08]]]}])";
   run_both(scene("head-on", fingers, 60, "", outline, 400), 60);
-}
-
-// ---- soak -------------------------------------------------------------------------------------------
-
-namespace {
-
-long rss_kb() {
-  std::ifstream f("/proc/self/statm");
-  long pages = 0, resident = 0;
-  f >> pages >> resident;
-  return resident * 4;  // 4 KiB pages
-}
-
-// Process CPU time (all threads), ms: frame cost that does not depend on other processes sharing the cores.
-double cpu_ms() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return 1e3 * (u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
-long peak_rss_kb() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return u.ru_maxrss;
-}
-
-}  // namespace
-
-TEST(Soak, DISABLED_TenThousandFrames) {
-  const char* env_scenario = std::getenv("SOAK_SCENARIO");
-  const char* env_frames = std::getenv("SOAK_FRAMES");
-  const char* env_report = std::getenv("SOAK_REPORT");
-  const char* env_threads = std::getenv("SOAK_THREADS");
-  const std::string path = env_scenario ? env_scenario : PT_SOURCE_DIR "/tests/soak/soak.json";
-  const Scenario sc = load_scenario(path);
-  const int frames = env_frames ? std::atoi(env_frames) : sc.sim.frames;
-  EngineOptions opt;
-  opt.threads = env_threads ? std::atoi(env_threads) : 2;
-  opt.check_invariants = true;
-  std::ostringstream rep;
-  const long rss0 = peak_rss_kb();
-  Simulation sim(sc, opt);
-  rep << "soak: " << path << ", " << frames << " frames at " << sc.sim.fps << " fps, " << opt.threads
-      << " threads, peak RSS before the sheet " << rss0 << " KiB\n";
-  rep << "  frames        ms/frame(avg)  ms/frame(max)  triangles(avg)  triangles(end)  vertices  pieces  tears  remeshes  "
-         "RSS(KiB)  peakRSS(KiB)  cpu_ms/frame  cpu_us/frame/triangle\n";
-  const auto start = Clock::now();
-  double block_ms = 0, block_max = 0, block_tris = 0, block_cpu0 = cpu_ms();
-  int nan_frames = 0;
-  for (int f = 1; f <= frames; ++f) {
-    const auto t0 = Clock::now();
-    sim.step();
-    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-    block_ms += ms;
-    block_max = std::max(block_max, ms);
-    block_tris += sim.sheet().tris.size();
-    std::string where;
-    if (!all_finite(sim.sheet(), where)) {
-      ++nan_frames;
-      ADD_FAILURE() << "non-finite value at frame " << f << " (" << where << ")";
-      break;
-    }
-    if (f % 1000 == 0 || f == frames) {
-      const int n = f % 1000 == 0 ? 1000 : f % 1000;
-      const double cpu = cpu_ms() - block_cpu0;
-      char line[256];
-      std::snprintf(line, sizeof line, "  %5d-%-5d  %13.3f  %13.3f  %14.1f  %14d  %8d  %6d  %5zu  %8d  %8ld  %12ld  %12.3f  %21.4f\n",
-                    f - n + 1, f, block_ms / n, block_max, block_tris / n, sim.sheet().tris.size(),
-                    sim.sheet().verts.size(), sim.sheet().topo.piece_count, sim.sheet().tears.size(),
-                    sim.remesh_count(), rss_kb(), peak_rss_kb(), cpu / n, 1000 * cpu / block_tris);
-      rep << line;
-      std::fputs(line, stdout);
-      std::fflush(stdout);
-      block_ms = block_max = block_tris = 0;
-      block_cpu0 = cpu_ms();
-    }
-  }
-  sim.flush();
-  const double wall = std::chrono::duration<double>(Clock::now() - start).count();
-  std::string where;
-  EXPECT_TRUE(all_finite(sim.sheet(), where)) << where;
-  rep << "NaN/non-finite frames: " << nan_frames << "\n";
-  rep << "invariant violations: " << sim.invariant_violations().size() << "\n";
-  for (size_t i = 0; i < std::min<size_t>(5, sim.invariant_violations().size()); ++i)
-    rep << "  " << sim.invariant_violations()[i] << "\n";
-  rep << "wall " << wall << " s, peak RSS " << peak_rss_kb() << " KiB, final hash " << sim.state_hash() << "\n";
-  std::fputs(rep.str().c_str(), stdout);
-  if (env_report) std::ofstream(env_report) << rep.str();
-  EXPECT_TRUE(sim.invariant_violations().empty());
 }
 
 // Issue 27: a run whose solver refuses (nearly) every substep is not a result: status "error" with the reason

@@ -1,5 +1,5 @@
 // Projective dynamics integration: hanging sheet at rest, energy decay, yanked corner, determinism, solver
-// reuse, NaN guard; frame times logged (no timing assertion).
+// reuse, NaN guard. Its speed is benchmarked (bench/frame_bench.cpp: BM_PhysicsFrameProjective).
 #include "systems/integrate.hpp"
 #include "systems/topology.hpp"
 
@@ -10,7 +10,6 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <random>
 
@@ -297,36 +296,6 @@ TEST(Integrate, NonFiniteResultKeepsThePreviousState) {
   s.fingers[0].target = x[0];
   EXPECT_TRUE(sim.step(s));
   EXPECT_TRUE(projective_solver_stats(*sim.solver).ok);
-}
-
-// Frame times, logged only.
-TEST(Integrate, TimingLogged) {
-  {
-    Sheet s = make_grid(0.2, 0.2, 7, 7);  // 98 triangles
-    hold(s, {vertex_at(s, Vec2(0, 0.2)), vertex_at(s, Vec2(0.2, 0.2))});
-    Sim sim;
-    sim.step(s);
-    const int frames = 300;
-    const auto t0 = std::chrono::steady_clock::now();
-    for (int f = 0; f < frames; ++f)
-      for (int k = 0; k < 10; ++k) sim.step(s);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / frames;
-    std::printf("[ timing ] %d triangles: %.3f ms per frame (10 substeps x 2 iterations, one core)\n", s.tris.size(), ms);
-  }
-  {
-    Sheet s = make_grid(0.3, 0.3, 71, 71);  // 10 082 triangles
-    hold(s, {vertex_at(s, Vec2(0, 0.3)), vertex_at(s, Vec2(0.3, 0.3))});
-    Sim sim;
-    auto t0 = std::chrono::steady_clock::now();
-    sim.step(s);
-    const double first = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    const int substeps = 60;
-    t0 = std::chrono::steady_clock::now();
-    for (int k = 0; k < substeps; ++k) sim.step(s);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / substeps;
-    std::printf("[ timing ] %d triangles: %.3f ms per substep (2 iterations, one core); first substep with "
-                "factorisation %.2f ms\n", s.tris.size(), ms, first);
-  }
 }
 
 }  // namespace

@@ -1,4 +1,5 @@
-// Membrane forces: gradient consistency, invariances, patch test, degenerate triangles, kernel speed (logged).
+// Membrane forces: gradient consistency, invariances, patch test, degenerate triangles. The kernel's speed is
+// benchmarked (bench/frame_bench.cpp: BM_MembraneForces, BM_GatherCornerForces).
 #include "systems/membrane_forces.hpp"
 #include "systems/topology.hpp"
 
@@ -8,7 +9,6 @@
 
 #include <Eigen/Geometry>
 
-#include <chrono>
 #include <cmath>
 #include <random>
 
@@ -314,34 +314,6 @@ TEST(MembraneForces, GatherIsIndependentOfRanges) {
     compute_membrane_forces(s.verts.x, s.tris.tri, s.tris.rest_inv, s.tris.rest_area, params, std::max(0, e - 7), e, cf2);
   for (int32_t e = nv; e > 0; e -= 5) gather_corner_forces(s.topo, s.tris.tri, cf2, std::max(0, e - 5), e, b);
   for (int32_t v = 0; v < nv; ++v) EXPECT_EQ(a[v], b[v]);
-}
-
-// Throughput of the kernel, logged only (no timing assertion).
-TEST(MembraneForces, KernelThroughputLogged) {
-  Sheet s = make_grid(0.3, 0.3, 160, 160, 0.3, 11);  // 51 200 triangles
-  std::mt19937 rng(4);
-  std::uniform_real_distribution<double> u(-1, 1);
-  for (Vec3& p : s.verts.x) p += 2e-4 * Vec3(u(rng), u(rng), u(rng));
-  const MembraneParams params = paper_params();
-  const int32_t nt = s.tris.size();
-  int reps = 0;
-  const auto t0 = std::chrono::steady_clock::now();
-  double elapsed = 0;
-  while (elapsed < 0.3) {
-    compute_membrane_forces(s.verts.x, s.tris.tri, s.tris.rest_inv, s.tris.rest_area, params, 0, nt,
-                            s.tris.corner_force);
-    ++reps;
-    elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  }
-  const double rate = static_cast<double>(reps) * nt / elapsed;
-  std::vector<Vec3> f(s.verts.size());
-  const auto t1 = std::chrono::steady_clock::now();
-  for (int k = 0; k < 20; ++k) gather_corner_forces(s.topo, s.tris.tri, s.tris.corner_force, 0, s.verts.size(), f);
-  const double gather = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count() / 20;
-  std::printf("[ timing ] membrane kernel: %.1f M triangles/s (one core, %d triangles); gather: %.1f M vertices/s\n",
-              rate * 1e-6, nt, s.verts.size() / gather * 1e-6);
-  RecordProperty("triangles_per_s", static_cast<int>(rate));
-  EXPECT_TRUE(f[0].allFinite());
 }
 
 }  // namespace

@@ -3,10 +3,12 @@
 // Every scenario runs with the mesh invariants (check_mesh_invariants, systems/topology.hpp) checked after
 // every remesh. The history of these measurements with the fan rule and the material force is in
 // bench/results/2026-12-01-path-claims-history.txt; the zigzag and branching claims are not met yet
-// (docs/tearing.md, "Known gaps") and their tests stay disabled.
+// (docs/tearing.md, "Known gaps") and their tests stay disabled. The same claims over 16 meshes are measured
+// by tools/path_claims.cpp (build/bin/papertear-path-claims), which shares tools/path_measures.hpp.
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "systems/topology.hpp"
+#include "tools/path_measures.hpp"
 
 #include <gtest/gtest.h>
 
@@ -18,6 +20,8 @@
 #include <numbers>
 
 using namespace pt;
+using pt::path_claims::direction_changes;
+using pt::path_claims::mediator_error;
 
 namespace {
 
@@ -76,20 +80,6 @@ std::string hash_with_split_ranges(const Scenario& s) {
   for (int32_t f = 0; f < s.sim.frames; ++f) sim.step();
   sim.flush();
   return sim.state_hash();
-}
-
-// Sign changes of the turn between consecutive coarse segments, ignoring turns below `threshold`.
-int direction_changes(const std::vector<Vec2>& tips, double threshold) {
-  int changes = 0, last_sign = 0;
-  for (size_t i = 2; i < tips.size(); ++i) {
-    const Vec2 a = tips[i - 1] - tips[i - 2], b = tips[i] - tips[i - 1];
-    const double turn = std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b));
-    if (std::abs(turn) < threshold) continue;
-    const int sign = turn > 0 ? 1 : -1;
-    if (last_sign != 0 && sign != last_sign) ++changes;
-    last_sign = sign;
-  }
-  return changes;
 }
 
 }  // namespace
@@ -332,21 +322,6 @@ TEST(Scenarios, PatchRelaxationTearsFig14BetweenTheFingers) {
   EXPECT_EQ(hash_with_split_ranges(s), r.sim->state_hash());
 }
 
-// Largest distance of the first tear's coarse path from the mediator of fingers A and B, as a fraction of
-// the path's length; with `within`, over the tips up to that path length only.
-double mediator_error(const Scenario& s, const Sheet& sheet, double within = 1e300) {
-  const Vec2 a = finger_uv(s, "A"), b = finger_uv(s, "B"), axis = (b - a).normalized(), mid = 0.5 * (a + b);
-  const Tear& tear = sheet.tears.at(0);
-  double worst = 0, length = 0;
-  for (size_t i = 0; i < tear.tips.size(); ++i) {
-    const double step = i > 0 ? (tear.tips[i] - tear.tips[i - 1]).norm() : 0.0;
-    if (length + step > within) break;
-    length += step;
-    worst = std::max(worst, std::abs((tear.tips[i] - mid).dot(axis)));
-  }
-  return length > 0 ? worst / length : 0.0;
-}
-
 // The crack driving force (tearing.direction = material_force) exists because the fan's bisector does not
 // see past the tip's own triangles. Fig. 14's sheet pulled apart in plane, on the four meshes of the claim
 // below: its tears stay at least twice as close to the mediator as the bisector's (measured over 16 meshes,
@@ -502,128 +477,6 @@ TEST(Scenarios, DISABLED_ZigzagHasThreeDirectionChanges) {
   const int changes = direction_changes(r.sheet().tears[0].tips, 0.2);
   std::printf("zigzag: %d direction changes beyond 0.2 rad\n", changes);
   EXPECT_GE(changes, 3);
-}
-
-// The angle (radians) between each coarse step of tear 0 and O'Keefe's direction at its start P: away
-// from the fingers, along the bisector of PA and PB (docs/tearing.md; the tangent of the
-// hyperbola through P). A step's own error, so it does not add up along the path as the distances do.
-std::vector<double> okeefe_step_errors(const Scenario& s, const Sheet& sheet) {
-  const Vec2 a = finger_uv(s, "A"), b = finger_uv(s, "B");
-  const std::vector<Vec2>& tips = sheet.tears.at(0).tips;
-  std::vector<double> errors;
-  for (size_t i = 1; i < tips.size(); ++i) {
-    const Vec2 p = tips[i - 1], step = tips[i] - p;
-    const Vec2 okeefe = -((a - p).normalized() + (b - p).normalized());
-    errors.push_back(std::atan2(std::abs(okeefe.x() * step.y() - okeefe.y() * step.x()), okeefe.dot(step)));
-  }
-  return errors;
-}
-
-// Issue 3's measuring harness: the three path claims above over 16 meshes (mesh_seed 0–15, rotated by
-// 17°·seed), for both tip directions, printed as distributions, no assertions (~40 s). Compare engine
-// changes with it, not with one mesh: every path is chaotic in the mesh and in the last bit of the physics.
-// PT_ISSUE3_TRIANGLES=N meshes every sheet with N triangles instead of the files' ~300 (1 200: ~5 min).
-// PT_ISSUE3_RELAXATION=patch (or next_frame) sets sim.relaxation of every run.
-//   build/bin/scenarios_test --gtest_also_run_disabled_tests --gtest_filter='*Issue3Measurements*'
-TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
-  const int meshes = 16;
-  const char* triangles = std::getenv("PT_ISSUE3_TRIANGLES");
-  const char* relaxation = std::getenv("PT_ISSUE3_RELAXATION");
-  const Scenario fig14 = load_scenario(scenario_path("fig14-straight.json"));
-  const Scenario fig14_inplane = load_scenario(scenario_path("fig14-inplane.json"));
-  const Scenario fig15 = load_scenario(scenario_path("fig15-curved.json"));
-  const Scenario fig16 = load_scenario(scenario_path("fig16-zigzag.json"));
-  for (const char* direction : {"fan", "material_force", "tension_rays"}) {
-    std::vector<double> mediator, fig14_tears, inplane, inplane_3cm, hyperbola, hyperbola_2x, zigzag, fig16_tears;
-    // Per-step errors against O'Keefe's direction (degrees), all steps of all meshes.
-    std::vector<double> step_fig14, step_inplane, step_fig15, steps_fig14;
-    auto append_degrees = [](const std::vector<double>& errors, std::vector<double>& all) {
-      for (double e : errors) all.push_back(e * 180 / std::numbers::pi);
-    };
-    size_t violations = 0, refused = 0, untorn = 0;  // mesh invariants broken, substeps the solver refused
-    auto tally = [&](const ScenarioRun& r) {
-      violations += r.sim->invariant_violations().size();
-      refused += static_cast<size_t>(r.sim->solver_stats().failures);
-    };
-    for (int i = 0; i < meshes; ++i) {
-      auto remeshed = [&](Scenario s) {
-        s.mesh_seed = static_cast<uint64_t>(i);
-        s.mesh_rotation_deg = 17.0 * i;
-        s.tearing.direction = direction;
-        s.tearing.snap.reset();
-        if (triangles) s.triangles = std::atoi(triangles);
-        if (relaxation) s.sim.relaxation = relaxation;
-        return s;
-      };
-      do {
-        const Scenario s = remeshed(fig14);
-        ScenarioRun r = run_scenario(s);
-        if (r.sheet().tears.empty()) { ++untorn; break; }
-        tally(r);
-        mediator.push_back(100 * mediator_error(s, r.sheet()));
-        fig14_tears.push_back(static_cast<double>(r.sheet().tears.size()));
-        const std::vector<double> errors = okeefe_step_errors(s, r.sheet());
-        append_degrees(errors, step_fig14);
-        steps_fig14.push_back(static_cast<double>(errors.size()));
-      } while (false);
-      do {
-        const Scenario s = remeshed(fig14_inplane);
-        ScenarioRun r = run_scenario(s);
-        if (r.sheet().tears.empty()) { ++untorn; break; }
-        tally(r);
-        inplane.push_back(100 * mediator_error(s, r.sheet()));
-        inplane_3cm.push_back(100 * mediator_error(s, r.sheet(), 0.03));
-        append_degrees(okeefe_step_errors(s, r.sheet()), step_inplane);
-      } while (false);
-      for (const double cap : {1.0, 2.0}) {
-        Scenario s = remeshed(fig15);
-        s.material.max_step *= cap;
-        const Vec2 a = finger_uv(s, "A"), b = finger_uv(s, "B");
-        ScenarioRun r = run_scenario(s);
-        if (r.sheet().tears.empty()) { ++untorn; break; }
-        const std::vector<Vec2>& tips = r.sheet().tears[0].tips;
-        const double d0 = (tips[0] - a).norm() - (tips[0] - b).norm();
-        double worst = 0;
-        for (const Vec2& p : tips) worst = std::max(worst, std::abs((p - a).norm() - (p - b).norm() - d0));
-        tally(r);
-        (cap == 1.0 ? hyperbola : hyperbola_2x).push_back(100 * worst / (a - b).norm());
-        if (cap == 1.0) append_degrees(okeefe_step_errors(s, r.sheet()), step_fig15);
-      }
-      do {
-        ScenarioRun r = run_scenario(remeshed(fig16));
-        if (r.sheet().tears.empty()) { ++untorn; break; }
-        tally(r);
-        zigzag.push_back(direction_changes(r.sheet().tears[0].tips, 0.2));
-        fig16_tears.push_back(static_cast<double>(r.sheet().tears.size()));
-      } while (false);
-    }
-    auto print = [](const char* what, std::vector<double> v) {
-      if (v.empty()) {
-        std::printf("%-42s none\n", what);
-        return;
-      }
-      std::sort(v.begin(), v.end());
-      double mean = 0;
-      for (double x : v) mean += x / v.size();
-      std::printf("%-42s mean %5.1f  min %5.1f  median %5.1f  max %5.1f\n", what, mean, v.front(), v[v.size() / 2],
-                  v.back());
-    };
-    std::printf("tearing.direction = %s, sim.relaxation = %s\n", direction, relaxation ? relaxation : "(files')");
-    print("Fig. 14 mediator error, % length", mediator);
-    print("Fig. 14 tears", fig14_tears);
-    print("Fig. 14 in plane: mediator error, % length", inplane);
-    print("  the same over the first 3 cm", inplane_3cm);
-    print("Fig. 15 hyperbola error, % |AB|", hyperbola);
-    print("Fig. 15 same, twice the step cap", hyperbola_2x);
-    print("Fig. 16 direction changes > 0.2", zigzag);
-    print("Fig. 16 tears", fig16_tears);
-    print("Fig. 14 steps of tear 0", steps_fig14);
-    print("Fig. 14 step error vs O'Keefe, degrees", step_fig14);
-    print("Fig. 14 in plane: the same", step_inplane);
-    print("Fig. 15: the same", step_fig15);
-    std::printf("mesh invariant violations %zu, refused substeps %zu, runs without a tear %zu (80 runs)\n", violations,
-                refused, untorn);
-  }
 }
 
 // A sheet torn in two: two pieces that both keep falling and swinging.

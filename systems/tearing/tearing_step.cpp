@@ -1,6 +1,5 @@
 #include "systems/tearing/tearing_step.hpp"
 
-#include "systems/mesh_quality.hpp"
 #include "systems/scoped_timer.hpp"
 #include "systems/topology.hpp"
 
@@ -176,7 +175,6 @@ int32_t propagate_candidate(const TearingParams& params, const Candidate& c, int
     started.kind = StartKind::Inward;
   const CutResult cut = cut_tear_segment(c.vertex, decision.next, previous, tear_id, params.remesh, sheet);
   if (!cut.cut) return -1;
-  if (params.delaunay_flips) flip_towards_delaunay_near_new_vertices(FlipParams{}, sheet);
   ++log.remeshes;
   if (params.check_invariants) {
     const std::string problem = check_mesh_invariants(sheet, area_before);

@@ -55,7 +55,6 @@ struct TearingParams {
   PropagationParams propagation;
   RemeshParams remesh;                 // the cut (paper §5.3); snap_fraction: snapping of the segment's end
   TearRelaxation relaxation = TearRelaxation::AfterEachCut;
-  bool delaunay_flips = false;         // Lawson flips around each cut (systems/mesh_quality.hpp)
   bool check_invariants = false;       // check_mesh_invariants after every cut, problems to the log
   TensionRayDecisionParams rays;       // TensionRays only
   // Quasi-static tearing: a tip advances again within the frame while Griffith's test holds after the

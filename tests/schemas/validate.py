@@ -154,6 +154,7 @@ def main():
     base = load(os.path.join(source, "scenarios", "start-inward.json"))
     refused_edits = [
         (["sim", "relaxation"], "patch", ["sim", "solver"], "projective"),
+        (["sim", "solver"], "projective", None, None),
         (["tearing", "snap"], 0.46, None, None),
         (["tearing", "direction"], "sideways", None, None),
         (["tearing", "radius"], 0, None, None),
@@ -196,7 +197,6 @@ def main():
     accepted_edits = [
         (["sim", "relaxation"], "patch", None, None),
         (["sim", "relaxation"], "patch", ["sim", "solver"], "implicit"),
-        (["sim", "solver"], "projective", None, None),
         (["tearing", "direction"], "bisector", None, None),
         (["tearing", "snap"], 0.45, None, None),
         (["detail", "texture"], [512, 16384], None, None),
