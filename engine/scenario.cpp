@@ -35,6 +35,8 @@ constexpr double kMaxCoordinate = 1'000;   // m: outline and finger targets
 constexpr double kMaxGravity = 10'000;     // m/s²
 constexpr double kMaxKeyTime = 1e7;        // s
 constexpr double kMaxGrip = 1e4;           // N
+constexpr int32_t kMaxObstacles = 1'000;    // each is a pass over the vertices per substep
+constexpr double kMaxFriction = 100;        // Coulomb μ (rubber on rubber is ~1–2)
 constexpr int64_t kMaxFileBytes = 64ll << 20;
 // What a sheet can physically be (README, "Scenario format"). Beyond these the implicit solver refuses
 // every substep (the sheet stands still) or the state overflows: no result, so the input is refused.
@@ -397,6 +399,40 @@ void read_hands(const Reader& r, const json& j, std::vector<HandSpec>& hands) {
   }
 }
 
+void read_obstacles(const Reader& r, const json& j, std::vector<Obstacle>& obstacles) {
+  const std::string path = "obstacles";
+  r.expect_array(j, path);
+  if (j.size() > static_cast<size_t>(kMaxObstacles))
+    fail(r.file, path, "absurd size: " + std::to_string(j.size()) + " obstacles (at most " + std::to_string(kMaxObstacles) + ")");
+  for (size_t i = 0; i < j.size(); ++i) {
+    const std::string p = child(path, i);
+    const json& o = j[i];
+    r.expect_object(o, p);
+    if (!o.contains("type")) fail(r.file, p, "missing type (\"plane\" or \"box\")");
+    const std::string type = r.string(o["type"], child(p, "type"));
+    Obstacle ob;
+    if (type == "plane") {
+      r.check_keys(o, p, {"type", "point", "normal", "friction"});
+      if (!o.contains("point")) fail(r.file, p, "missing point (a point [x, y, z] on the plane)");
+      if (!o.contains("normal")) fail(r.file, p, "missing normal (the side [x, y, z] the sheet stays on)");
+      ob.kind = Obstacle::Kind::Plane;
+      ob.point = r.vec<3>(o["point"], child(p, "point"));
+      ob.normal = r.vec<3>(o["normal"], child(p, "normal"));
+    } else if (type == "box") {
+      r.check_keys(o, p, {"type", "min", "max", "friction"});
+      if (!o.contains("min")) fail(r.file, p, "missing min (the corner [x, y, z] of smallest coordinates)");
+      if (!o.contains("max")) fail(r.file, p, "missing max (the corner [x, y, z] of largest coordinates)");
+      ob.kind = Obstacle::Kind::Box;
+      ob.min = r.vec<3>(o["min"], child(p, "min"));
+      ob.max = r.vec<3>(o["max"], child(p, "max"));
+    } else {
+      fail(r.file, child(p, "type"), "unknown obstacle type \"" + type + "\" (plane or box)");
+    }
+    if (o.contains("friction")) ob.friction = r.number(o["friction"], child(p, "friction"));
+    obstacles.push_back(ob);
+  }
+}
+
 // Duplicate keys (which nlohmann silently resolves to the last one) and absurd nesting, found while
 // parsing, with the JSON path of the offending key.
 struct StrictnessError {
@@ -551,6 +587,63 @@ void validate_key_times(const std::string& file, const std::string& keys_path, c
     check_range(file, p, times[k], 0, kMaxKeyTime, false);
     if (k > 0 && !(times[k] > times[k - 1]))
       fail(file, p, "key times must increase (" + fmt(times[k]) + " after " + fmt(times[k - 1]) + ")");
+  }
+}
+
+// True when the open rectangle lo < p < hi and the outline's interior overlap: an outline edge with a
+// piece of positive length inside the rectangle (Liang–Barsky clip), or the rectangle inside the outline.
+bool outline_overlaps_rectangle(const std::vector<Vec2>& outline, const Vec2& lo, const Vec2& hi) {
+  for (size_t i = 0; i < outline.size(); ++i) {
+    const Vec2 a = outline[i], d = outline[(i + 1) % outline.size()] - a;
+    double enter = 0, leave = 1;
+    bool inside = true;
+    for (int k = 0; k < 2 && inside; ++k) {
+      if (d[k] == 0) {
+        inside = a[k] > lo[k] && a[k] < hi[k];
+        continue;
+      }
+      double t0 = (lo[k] - a[k]) / d[k], t1 = (hi[k] - a[k]) / d[k];
+      if (t0 > t1) std::swap(t0, t1);
+      enter = std::max(enter, t0);
+      leave = std::min(leave, t1);
+    }
+    if (inside && enter < leave) return true;
+  }
+  return point_on_sheet(outline, 0.5 * (lo + hi));
+}
+
+void validate_obstacles(const Scenario& s, const std::vector<Vec2>& outline) {
+  const std::string& file = s.path;
+  if (s.obstacles.size() > static_cast<size_t>(kMaxObstacles))
+    fail(file, "obstacles", "absurd size: " + std::to_string(s.obstacles.size()) + " obstacles (at most " +
+                                std::to_string(kMaxObstacles) + ")");
+  if (!s.obstacles.empty() && s.sim.solver != "implicit")
+    fail(file, "obstacles", "obstacles need the implicit solver; sim.solver is \"" + s.sim.solver + "\"");
+  for (size_t i = 0; i < s.obstacles.size(); ++i) {
+    const Obstacle& o = s.obstacles[i];
+    const std::string p = child("obstacles", i);
+    check_non_negative(file, child(p, "friction"), o.friction);
+    if (o.friction > kMaxFriction)
+      fail(file, child(p, "friction"), "absurd friction " + fmt(o.friction) + " (at most " + fmt(kMaxFriction) + ")");
+    if (o.kind == Obstacle::Kind::Plane) {
+      check_vec(file, child(p, "point"), o.point.data(), 3, kMaxCoordinate);
+      check_vec(file, child(p, "normal"), o.normal.data(), 3, std::numeric_limits<double>::max());
+      if (!(o.normal.cwiseAbs().maxCoeff() > 0)) fail(file, child(p, "normal"), "must be non-zero");
+      // The sheet starts flat in the plane z = 0 over its outline: the outline's corners are its extremes.
+      const Vec3 n = (o.normal / o.normal.cwiseAbs().maxCoeff()).normalized();  // scaled first: a tiny one underflows
+      for (const Vec2& q : outline)
+        if (n.dot(Vec3(q.x(), q.y(), 0) - o.point) < 0)
+          fail(file, p, "the sheet starts below this plane (its corner " + fmt_uv(q) + " is on the far side of the normal)");
+    } else {
+      check_vec(file, child(p, "min"), o.min.data(), 3, kMaxCoordinate);
+      check_vec(file, child(p, "max"), o.max.data(), 3, kMaxCoordinate);
+      for (int a = 0; a < 3; ++a)
+        if (!(o.max[a] > o.min[a]))
+          fail(file, child(child(p, "max"), size_t(a)),
+               "must exceed min[" + std::to_string(a) + "] (" + fmt(o.max[a]) + " <= " + fmt(o.min[a]) + ")");
+      if (o.min.z() < 0 && o.max.z() > 0 && outline_overlaps_rectangle(outline, o.min.head<2>(), o.max.head<2>()))
+        fail(file, p, "the sheet starts inside this box (it lies in z = 0 over its outline)");
+    }
   }
 }
 
@@ -719,6 +812,8 @@ void validate_scenario(const Scenario& s) {
     validate_key_times(file, child(p, "keys"), times);
   }
 
+  validate_obstacles(s, outline);
+
   // Far from the origin doubles do not resolve the sheet's strains (engine/scenario.hpp).
   const SheetReach reach = sheet_reach(s, outline);
   if (reach.carried + reach.fall > kMaxSheetPosition) {
@@ -754,7 +849,8 @@ Scenario parse_document(const std::string& json_text, const std::string& path_fo
 
   const Reader r{file};
   r.check_keys(root, "",
-               {"name", "description", "version", "sheet", "material", "detail", "sim", "tearing", "fingers", "hands"});
+               {"name", "description", "version", "sheet", "material", "detail", "sim", "tearing", "fingers", "hands",
+                "obstacles"});
 
   Scenario s;
   s.path = file;
@@ -781,6 +877,7 @@ Scenario parse_document(const std::string& json_text, const std::string& path_fo
   if (root.contains("fingers")) read_fingers(r, root["fingers"], s.fingers);
   if (s.fingers.empty() && fingers_required) fail(file, "fingers", "at least one finger is required");
   if (root.contains("hands")) read_hands(r, root["hands"], s.hands);
+  if (root.contains("obstacles")) read_obstacles(r, root["obstacles"], s.obstacles);
 
   validate_scenario(s);
   return s;

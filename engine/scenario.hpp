@@ -3,6 +3,7 @@
 // are InputError with the file and the JSON path of the problem.
 #pragma once
 
+#include "components/obstacles.hpp"
 #include "components/sheet.hpp"
 
 #include <array>
@@ -91,6 +92,8 @@ struct Scenario {
   TearingSettings tearing;
   std::vector<FingerSpec> fingers;
   std::vector<HandSpec> hands;
+  // Planes and boxes the sheet cannot pass (docs/scenario-format.md, "Obstacles"); plane normals unit.
+  std::vector<Obstacle> obstacles;
 };
 
 // Parse and validate. Throws InputError.

@@ -182,6 +182,12 @@ struct Simulation::Impl {
     implicit_params.mass_damping = m.damping;
     implicit_params.grain = options.parallel_grain;
     implicit_params.run = integrate_params.run;
+    // Obstacles with unit normals (validated non-zero; scaled first, so a tiny normal's norm cannot
+    // underflow), grown by half the sheet's thickness: its mid-surface lies that far above a table.
+    implicit_params.obstacles = scenario.obstacles;
+    for (Obstacle& o : implicit_params.obstacles)
+      if (o.kind == Obstacle::Kind::Plane) o.normal = (o.normal / o.normal.cwiseAbs().maxCoeff()).normalized();
+    implicit_params.contact_offset = 0.5 * m.thickness;
     use_projective = scenario.sim.solver == "projective";
     membrane = membrane_params(m);
     take_propagation_params(m);

@@ -41,6 +41,7 @@
 // tearing scenarios, none once a sheet moves slowly.
 #pragma once
 
+#include "components/obstacles.hpp"
 #include "components/sheet.hpp"
 #include "systems/bending_forces.hpp"
 #include "systems/membrane_forces.hpp"
@@ -64,6 +65,10 @@ struct ImplicitParams {
     double stiffness = 0;  // N/m
   };
   std::vector<Spring> springs;
+  // Fixed obstacles (planes, boxes) no free vertex ends a substep inside, grown by contact_offset (m), with
+  // Coulomb friction (systems/physics/contact.hpp). Empty: the step is unchanged.
+  std::vector<Obstacle> obstacles;
+  double contact_offset = 0;
 };
 
 struct ImplicitSolver;
@@ -78,11 +83,18 @@ struct ImplicitStats {
   int64_t failures = 0;        // substeps rejected (the state was left unchanged)
   int64_t brakes = 0;          // substeps redone with the spin brake (energy check failed)
   int64_t regularised = 0;     // solves that needed a diagonal shift to factorise (see implicit_substep)
+  int64_t contacts = 0;        // vertex-substeps that an obstacle stopped after the solve (systems/physics/contact.hpp)
+  int64_t resting_contacts = 0;  // vertex-substeps resting on an obstacle, filtered in the solve
+  int64_t arrivals = 0;        // vertices landing on an obstacle, constrained to its surface in a second solve
+  int64_t releases = 0;        // resting vertices released because their support would pull (the step solved again)
   // Wall time in ms, summed over the solver's life, of its parts: the block structure after a topology or
   // held-set change (pairs, keys, constant values, destinations; the analysis excluded), the symbolic
   // analyses, the assembly of matrix values and right-hand side, the numeric factorisations and the
   // triangular solves. Not part of the state: results do not depend on them.
   double structure_ms = 0, analysis_ms = 0, assembly_ms = 0, factorization_ms = 0, solve_ms = 0;
+  // The obstacles' part (none without obstacles): resting contacts found, filtered (inside assembly_ms too),
+  // their reactions, and the pass after the solve; a release's extra solve counts in the solver's parts.
+  double contact_ms = 0;
 };
 const ImplicitStats& implicit_solver_stats(const ImplicitSolver& solver);
 // Heap bytes the solver keeps between substeps (structure, matrix values, factor, scratch), capacity based.

@@ -357,10 +357,10 @@ Renderer::~Renderer() {
   if (sheet_program_) glDeleteProgram(sheet_program_);
   if (carved_program_) glDeleteProgram(carved_program_);
   if (line_program_) glDeleteProgram(line_program_);
-  GLuint vaos[3] = {sheet_vao_, line_vao_, pattern_vao_}, vbos[3] = {sheet_vbo_, line_vbo_, pattern_vbo_},
-         texs[2] = {paper_tex_, label_tex_};
-  glDeleteVertexArrays(3, vaos);
-  glDeleteBuffers(3, vbos);
+  GLuint vaos[4] = {sheet_vao_, line_vao_, pattern_vao_, obstacle_vao_},
+         vbos[4] = {sheet_vbo_, line_vbo_, pattern_vbo_, obstacle_vbo_}, texs[2] = {paper_tex_, label_tex_};
+  glDeleteVertexArrays(4, vaos);
+  glDeleteBuffers(4, vbos);
   glDeleteTextures(2, texs);
 }
 
@@ -393,13 +393,78 @@ bool Renderer::init() {
   };
   position_colour_vao(line_vao_, line_vbo_);
   position_colour_vao(pattern_vao_, pattern_vbo_);
+  position_colour_vao(obstacle_vao_, obstacle_vbo_);
   glBindVertexArray(0);
   glGenTextures(1, &paper_tex_);
   glGenTextures(1, &label_tex_);
   return true;
 }
 
+namespace {
+// The scenario's obstacles as coloured triangles (position, colour): a plane as a checkered square around
+// the sheet's foot on it, `extent` a side, a box as its six faces shaded by their direction.
+std::vector<float> obstacle_triangles(const std::vector<Obstacle>& obstacles, const Vec3& centre, double extent) {
+  std::vector<float> out;
+  auto put = [&](const Vec3& p, const Vec3& c) {
+    for (int k = 0; k < 3; ++k) out.push_back(float(p[k]));
+    for (int k = 0; k < 3; ++k) out.push_back(float(c[k]));
+  };
+  auto quad = [&](const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, const Vec3& col) {
+    put(a, col), put(b, col), put(c, col);
+    put(a, col), put(c, col), put(d, col);
+  };
+  for (const Obstacle& o : obstacles) {
+    if (o.kind == Obstacle::Kind::Plane) {
+      const Vec3 n = (o.normal / o.normal.cwiseAbs().maxCoeff()).normalized();
+      int least = 0;
+      for (int k = 1; k < 3; ++k)
+        if (std::abs(n[k]) < std::abs(n[least])) least = k;
+      const Vec3 u = n.cross(Vec3::Unit(least)).normalized(), w = n.cross(u);
+      const Vec3 foot = centre - n.dot(centre - o.point) * n;
+      constexpr int kTiles = 12;
+      const double tile = extent / kTiles;
+      for (int i = 0; i < kTiles; ++i)
+        for (int j = 0; j < kTiles; ++j) {
+          const Vec3 a = foot + (i - kTiles / 2) * tile * u + (j - kTiles / 2) * tile * w;
+          const Vec3 col = (i + j) % 2 ? Vec3(0.42, 0.40, 0.36) : Vec3(0.50, 0.47, 0.42);
+          quad(a, a + tile * u, a + tile * u + tile * w, a + tile * w, col);
+        }
+      continue;
+    }
+    const Vec3 lo = o.min, hi = o.max;
+    for (int axis = 0; axis < 3; ++axis)
+      for (const int side : {0, 1}) {
+        const int b = (axis + 1) % 3, c = (axis + 2) % 3;
+        auto corner = [&](bool tb, bool tc) {
+          Vec3 p;
+          p[axis] = side ? hi[axis] : lo[axis];
+          p[b] = tb ? hi[b] : lo[b];
+          p[c] = tc ? hi[c] : lo[c];
+          return p;
+        };
+        const double shade = axis == 2 ? (side ? 0.75 : 0.35) : (axis == 0 ? 0.55 : 0.62) + (side ? 0.05 : -0.05);
+        const Vec3 col = shade * Vec3(0.55, 0.62, 0.75);
+        quad(corner(false, false), corner(true, false), corner(true, true), corner(false, true), col);
+      }
+  }
+  return out;
+}
+}  // namespace
+
 void Renderer::load_sheet(const Simulation& sim) {
+  {
+    const Sheet& sheet = sim.sheet();
+    Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+    for (const Vec3& x : sheet.verts.x) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+    if (lo.x() > hi.x()) lo = hi = Vec3::Zero();
+    const std::vector<float> data =
+        obstacle_triangles(sim.scenario().obstacles, 0.5 * (lo + hi), std::max(0.3, 3 * (hi - lo).norm()));
+    glBindVertexArray(obstacle_vao_);
+    glBindBuffer(GL_ARRAY_BUFFER, obstacle_vbo_);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(float)), data.data(), GL_STATIC_DRAW);
+    glBindVertexArray(0);
+    obstacle_vertices_ = static_cast<int32_t>(data.size() / 6);
+  }
   const DetailParams& d = sim.detail_params();
   tex_origin_ = d.origin;
   tex_pixel_ = d.pixel_size;
@@ -602,6 +667,16 @@ void Renderer::draw_prepared(const Camera& camera) {
   glEnable(GL_DEPTH_TEST);
   glDisable(GL_CULL_FACE);  // both sides
   glEnable(GL_POLYGON_OFFSET_FILL);
+  if (obstacle_vertices_ > 0) {
+    // Behind the sheet that rests on them (half a thickness above): pushed back further than the sheet.
+    glPolygonOffset(4.0f, 16.0f);
+    glUseProgram(line_program_);
+    glUniformMatrix4fv(glGetUniformLocation(line_program_, "u_mvp"), 1, GL_FALSE, mvp);
+    glUniform1f(glGetUniformLocation(line_program_, "u_lift"), 0.0f);
+    glUniform1f(glGetUniformLocation(line_program_, "u_point_size"), 1.0f);
+    glBindVertexArray(obstacle_vao_);
+    glDrawArrays(GL_TRIANGLES, 0, obstacle_vertices_);
+  }
   glPolygonOffset(1.0f, 1.0f);
   auto use_sheet_program = [&](GLuint program) {
     glUseProgram(program);

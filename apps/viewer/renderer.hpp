@@ -1,7 +1,7 @@
 // OpenGL 3.3 core drawing of one sheet for papertear-viewer: the deformed mesh with a paper texture (the
 // sheet's fibre field) and the carved tear details (pixels beyond a tear's detailed path on the other
 // lip are cut away by alpha test against the carving side-label map), both sides lit; boundary and tear
-// edges as lines; an orbit camera.
+// edges as lines; the scenario's obstacles (a checkered floor, shaded boxes); an orbit camera.
 #pragma once
 
 #include "engine/simulation.hpp"
@@ -121,6 +121,8 @@ class Renderer {
   int32_t prepared_triangles_ = 0, prepared_carved_ = 0, prepared_line_vertices_ = 0;  // what prepare uploaded
   // Pattern inset: its own buffer and layer, and what was drawn into it last.
   unsigned pattern_vao_ = 0, pattern_vbo_ = 0;
+  unsigned obstacle_vao_ = 0, obstacle_vbo_ = 0;  // the scenario's planes and boxes, built at load_sheet
+  int32_t obstacle_vertices_ = 0;
   Layer pattern_layer_;
   std::vector<float> pattern_drawn_;
   std::array<size_t, 6> pattern_counts_{};
