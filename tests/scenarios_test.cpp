@@ -6,6 +6,7 @@
 // (docs/tearing.md, "Known gaps") and their tests stay disabled.
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
+#include "engine/simulation_internals.hpp"
 #include "systems/topology.hpp"
 
 #include <gtest/gtest.h>
@@ -108,7 +109,7 @@ TEST_P(EveryScenario, RunsWithMeshInvariantsAndNoNaN) {
   if (GetParam() != "fig12-junction.json") EXPECT_FALSE(r.sheet().tears.empty()) << "every figure scenario tears";
   EXPECT_EQ(check_mesh_invariants(r.sheet()), "");
   // A refused substep leaves the whole sheet where it was (no NaN enters it), so it must stay an exception.
-  EXPECT_EQ(r.sim->solver_stats().failures, 0) << "substeps the implicit solver refused";
+  EXPECT_EQ(solver_stats(*r.sim).failures, 0) << "substeps the implicit solver refused";
 }
 
 // Regression: on these meshes the tears used to leave slivers (a vertex 2·10⁻⁸ m from
@@ -126,7 +127,7 @@ TEST(Scenarios, NoSubstepIsRefusedOnMeshesThatUsedToFreeze) {
     s.mesh_seed = c.mesh;
     s.mesh_rotation_deg = 17.0 * static_cast<double>(c.mesh);
     ScenarioRun r = run_scenario(s);
-    EXPECT_EQ(r.sim->solver_stats().failures, 0) << c.file << " mesh " << c.mesh;
+    EXPECT_EQ(solver_stats(*r.sim).failures, 0) << c.file << " mesh " << c.mesh;
     expect_no_violations(*r.sim);
   }
 }
@@ -543,7 +544,7 @@ TEST(Scenarios, DISABLED_Issue3MeasurementsOverSixteenMeshes) {
     size_t violations = 0, refused = 0, untorn = 0;  // mesh invariants broken, substeps the solver refused
     auto tally = [&](const ScenarioRun& r) {
       violations += r.sim->invariant_violations().size();
-      refused += static_cast<size_t>(r.sim->solver_stats().failures);
+      refused += static_cast<size_t>(solver_stats(*r.sim).failures);
     };
     for (int i = 0; i < meshes; ++i) {
       auto remeshed = [&](Scenario s) {
