@@ -13,6 +13,7 @@
 #include "engine/batch.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
+#include "engine/simulation_internals.hpp"
 #include "systems/carving.hpp"
 #include "systems/fiber_field.hpp"
 
@@ -38,10 +39,10 @@ double longest_tear(const pt::Sheet& s) {
 void report(const char* what, const pt::Simulation& sim) {
   const pt::Sheet& s = sim.sheet();
   const size_t sheet = pt::sheet_bytes(s);
-  const int64_t carve = pt::bytes_used(sim.carve_state());
+  const int64_t carve = pt::bytes_used(pt::carve_state(sim));
   std::printf("%-34s frame %3d: %4d vertices, %4d triangles, %zu tears (longest %.1f cm), %zu label tiles\n", what,
               sim.frame(), s.verts.size(), s.tris.size(), s.tears.size(), 100 * longest_tear(s),
-              sim.carve_state().tiles.size());
+              pt::carve_state(sim).tiles.size());
   const size_t solver = sim.solver_bytes();
   std::printf("%-34s   sheet arrays %zu B + solver %zu B + label map %lld B + fiber field %zu B = %lld B (%.1f KiB)\n", "",
               sheet, solver, static_cast<long long>(carve), sizeof(pt::FiberField),
@@ -73,7 +74,7 @@ int main(int argc, char** argv) {
     pt::Scenario sc = pt::load_scenario(path);
     if (frames > 0) sc.sim.frames = frames;
     pt::Simulation sim(sc);
-    const pt::DetailParams& dp = sim.detail_params();
+    const pt::DetailParams& dp = pt::detail_params(sim);
     const double full = static_cast<double>(dp.width) * dp.height;
     std::printf("%s: texture %d x %d px at %.1f um/px, sigma %.2f mm (a full RGBA texture would be %.1f MiB, a "
                 "full uint16 label map %.1f MiB)\n",
@@ -95,7 +96,7 @@ int main(int argc, char** argv) {
     for (int32_t k = 0; k <= segments; ++k)
       tears[0].tips.push_back(top + pt::Vec2(k == 0 || k == segments ? 0.0 : (k % 2 ? 1e-3 : -1e-3), -k * step));
     pt::CarveState state;
-    pt::carve_new_segments(sim.fiber(), dp, tears, state);
+    pt::carve_new_segments(pt::fiber_field(sim), dp, tears, state);
     std::printf("%-34s %d segments: label map %lld B (%.1f KiB, %zu tiles of %d x %d px), detail path %zu points "
                 "(%zu B)\n",
                 ("synthetic " + std::to_string(tear_cm).substr(0, 4) + " cm tear").c_str(), segments,

@@ -14,6 +14,7 @@
 #include "engine/result_writer.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
+#include "engine/simulation_internals.hpp"
 #include "engine/texture_export.hpp"
 #include "systems/dense_kernels.hpp"
 #include "systems/meshing.hpp"
@@ -349,8 +350,8 @@ int run_command(const RunOptions& opt) {
   }
   if (opt.png) {
     const fs::path png = out.path() / "pattern.png";
-    pt::write_pattern_png(png.string(), scenario.outline, sim.sheet().tears, sim.carve_state(), sim.detail_params(),
-                          sim.fiber());
+    pt::write_pattern_png(png.string(), scenario.outline, sim.sheet().tears, pt::carve_state(sim), pt::detail_params(sim),
+                          pt::fiber_field(sim));
     written.push_back(png.string());
   }
   if (opt.obj) {

@@ -4,13 +4,13 @@
 // Lifetime: a view points into the sheet's arrays. It stays valid (and follows the simulation: after
 // step() it shows the new positions) until the topology changes — a tear cut, a remesh or a finger
 // attached inserts vertices and may reallocate the arrays. Sheet::topology_version changes exactly then;
-// take new views when it does. (The engine only grows these vectors with push_back/resize, so a tool
-// that needs views to outlive growth can reserve() capacity through Simulation::mutable_sheet() between
-// frames, as the Python module does.)
+// take new views when it does. (The engine only grows these vectors with push_back/resize, so a tool of
+// this repository that needs views to outlive growth can reserve() capacity through mutable_sheet() of
+// engine/simulation_internals.hpp between frames, as the Python module does.)
 #pragma once
 
-#include "components/sheet.hpp"
-#include "engine/simulation.hpp"
+#include "../components/sheet.hpp"
+#include "simulation.hpp"
 
 #include <cstddef>
 #include <cstdint>

@@ -184,7 +184,7 @@ BatchResult merge_batch_sheets(const Scenario& base, const BatchOptions& options
   size_t total_bytes = 0, total_solver_bytes = 0;
   int64_t sheet_frames = 0;
   for (const SheetRun& run : runs) {
-    for (size_t k = 0; k < 11; ++k) {
+    for (size_t k = 0; k < kSystems.size(); ++k) {
       const TimingStat& s = run.systems[k];
       result.systems[k].sum += s.sum;
       result.systems[k].count += s.count;
@@ -273,10 +273,10 @@ void write_batch_json(const BatchResult& r, const std::string& scenario_name, co
   j["wall_s"] = r.wall_s;
   j["sheet_frames_per_s"] = r.sheet_frames_per_s;
   nlohmann::ordered_json timings, throughput;
-  for (size_t k = 0; k < 11; ++k) {
-    timings[kSystemNames[k]] = r.systems[k].avg();
+  for (size_t k = 0; k < kSystems.size(); ++k) {
+    timings[kSystems[k].name] = r.systems[k].avg();
     const SystemThroughput& t = r.throughput[k];
-    throughput[kSystemNames[k]] = {{"calls", t.calls},
+    throughput[kSystems[k].name] = {{"calls", t.calls},
                                    {"time_ms", t.total_ms},
                                    {"triangles_per_s", t.total_ms > 0 ? t.triangles / (t.total_ms / 1000.0) : 0.0}};
   }

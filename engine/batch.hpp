@@ -4,8 +4,8 @@
 // sheet is deterministic on its own.
 #pragma once
 
-#include "engine/scenario.hpp"
-#include "engine/simulation.hpp"
+#include "scenario.hpp"
+#include "simulation.hpp"
 
 #include <array>
 #include <functional>
@@ -63,8 +63,8 @@ struct BatchResult {
   std::vector<Variation> vary;                  // what was varied (SheetOutcome::varied in this order)
   bool fixed_seeds = false;
   double wall_s = 0, sheet_frames_per_s = 0;
-  std::array<TimingStat, 11> systems;           // kSystemNames order, per frame over all sheets
-  std::array<SystemThroughput, 11> throughput;  // kSystemNames order
+  PerSystem<TimingStat> systems;                // per frame over all sheets
+  PerSystem<SystemThroughput> throughput;
   std::vector<SheetOutcome> outcomes;           // in sheet order
   size_t bytes_per_sheet = 0;                   // average sheet data size (excluding texture), B
   size_t solver_bytes_per_sheet = 0;            // average memory of the sheet's implicit solver (matrix, factor), B
@@ -95,7 +95,7 @@ BatchResult run_batch(const Scenario& base, const BatchOptions& options,
 // sheet and merge_batch_sheets over them; engine/batch_mpi.cpp runs the sheets on several processes.
 struct SheetRun {
   SheetOutcome outcome;
-  std::array<TimingStat, 11> systems;  // kSystemNames order, over the sheet's frames
+  PerSystem<TimingStat> systems;       // over the sheet's frames
   int64_t frames_timed = 0;            // TimingReport::frame.count
   size_t bytes = 0, solver_bytes = 0;  // sheet_bytes and the solver's at the end
   double triangles = 0;                // triangles processed, summed over the frames

@@ -3,6 +3,8 @@
 #include "engine/result_writer.hpp"
 
 #include "engine/simulation.hpp"
+#include "engine/simulation_internals.hpp"
+#include "engine/texture_export.hpp"
 #include "systems/carving.hpp"
 
 #include <nlohmann/json.hpp>
@@ -200,7 +202,7 @@ std::string solver_failure(const Simulation& sim) {
   // Refused substeps leave the state as it was; a few are survivable, most mean the sheet never moved
   // (a step far outside what the solver can take). Relaxation substeps add to the refusals, not to the count.
   const int64_t substeps = static_cast<int64_t>(sim.frame()) * sim.scenario().sim.substeps;
-  const int64_t refused = sim.solver_stats().failures;
+  const int64_t refused = solver_stats(sim).failures;
   if (substeps <= 0 || 2 * refused <= substeps) return "";
   return "the solver refused " + std::to_string(refused) + " of the run's " + std::to_string(substeps) +
          " substeps (a refused substep leaves the sheet where it was)";
@@ -277,7 +279,7 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::
 
   // Extra keys (docs/result-format.md: more keys may be added).
   ojson systems = ojson::object();
-  for (size_t i = 0; i < kSystemNames.size(); ++i) systems[kSystemNames[i]] = num.stat(tr.systems[i]);
+  for (size_t i = 0; i < kSystems.size(); ++i) systems[kSystems[i].name] = num.stat(tr.systems[i]);
   result["systems_ms"] = std::move(systems);
 
   ojson regions{{"frames", stats.size()}};
@@ -312,7 +314,7 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::
   // The work of the default implicit integrator (zeros with "solver": "projective"): symbolic analyses
   // (after cuts or a change of the held set), numeric factorisations, spin-brake redos, solves that needed a
   // diagonal shift, and rejected substeps.
-  const ImplicitStats solver = sim.solver_stats();
+  const ImplicitStats solver = solver_stats(sim);
   result["solver"] = ojson{{"analyses", solver.analyses},
                            {"factorizations", solver.factorizations},
                            {"brakes", solver.brakes},
@@ -450,7 +452,7 @@ void write_obj(const Simulation& sim, const std::string& path) {
   const Sheet& sheet = sim.sheet();
   // vt in the texture's frame (origin, pixel size × resolution) so the PNGs of engine/texture_export.hpp
   // map onto the mesh; the outline's bounding box when there is no texture.
-  const DetailParams& dp = sim.detail_params();
+  const DetailParams& dp = detail_params(sim);
   Box box = pattern_box(sim);
   if (dp.width > 0 && dp.height > 0 && dp.pixel_size > 0) {
     box.lo = dp.origin;
@@ -471,10 +473,27 @@ void write_obj(const Simulation& sim, const std::string& path) {
   write_file_atomically(path, s);
 }
 
-TexturedObjWriter::TexturedObjWriter(std::string dir, PatternStyle style) : dir_(std::move(dir)), style_(style) {}
+struct TexturedObjWriter::State {
+  std::string dir_;
+  PatternStyle style_;
+  bool paper_written_ = false;
+  CarvedAtlas atlas_;
+  int64_t atlas_segments_ = -1;
+  std::string carved_name_;
+  int32_t carved_written_ = 0;
+};
+
+TexturedObjWriter::TexturedObjWriter(std::string dir) : TexturedObjWriter(std::move(dir), PatternStyle{}) {}
+TexturedObjWriter::TexturedObjWriter(std::string dir, const PatternStyle& style) : state_(std::make_unique<State>()) {
+  state_->dir_ = std::move(dir);
+  state_->style_ = style;
+}
+TexturedObjWriter::~TexturedObjWriter() = default;
+int32_t TexturedObjWriter::carved_textures_written() const { return state_->carved_written_; }
+const std::string& TexturedObjWriter::carved_texture() const { return state_->carved_name_; }
 
 double estimated_obj_bytes(const Simulation& sim, int64_t frames) {
-  const DetailParams& dp = sim.detail_params();
+  const DetailParams& dp = detail_params(sim);
   // paper.png: the demo's 2100 x 2970 px texture took 7.1 MB, 1.15 B a pixel at compression level 1.
   const double paper = 1.5 * static_cast<double>(dp.width) * static_cast<double>(dp.height);
   const double frame = 256 + 64.0 * sim.sheet().verts.size() + 48.0 * sim.sheet().tris.size() + 256;
@@ -482,20 +501,21 @@ double estimated_obj_bytes(const Simulation& sim, int64_t frames) {
 }
 
 void TexturedObjWriter::write(const Simulation& sim, const std::string& stem) {
+  State& st = *state_;
   namespace fs = std::filesystem;
   const Sheet& sheet = sim.sheet();
-  const DetailParams& dp = sim.detail_params();
-  const fs::path dir(dir_);
+  const DetailParams& dp = detail_params(sim);
+  const fs::path dir(st.dir_);
   if (dp.width <= 0 || dp.height <= 0 || !(dp.pixel_size > 0)) {  // no texture: the plain mesh
     write_obj(sim, (dir / (stem + ".obj")).string());
     return;
   }
   const std::vector<Vec2>& outline = sim.scenario().outline;
-  if (!paper_written_) {
+  if (!st.paper_written_) {
     std::vector<uint8_t> rgba;
-    render_carved_texture_rgba(outline, sim.carve_state(), dp, sim.fiber(), 0, style_, rgba);
+    render_carved_texture_rgba(outline, carve_state(sim), dp, fiber_field(sim), 0, st.style_, rgba);
     write_rgba_png((dir / "paper.png").string(), dp.width, dp.height, rgba);
-    paper_written_ = true;
+    st.paper_written_ = true;
   }
 
   // Side labels of the triangles along the tears, and their support strips: lip edges (boundary edges of a
@@ -577,17 +597,17 @@ void TexturedObjWriter::write(const Simulation& sim, const std::string& stem) {
     if (x1 > x0 && y1 > y0) windows.push_back({labels[k], PixelRect{x0, y0, x1 - x0, y1 - y0}});
   }
   const CarvedAtlas atlas = pack_carved_atlas(windows);
-  const int64_t segments = sim.carve_state().carved_segments;
-  if (!atlas.patches.empty() && (carved_name_.empty() || !(atlas == atlas_) || segments != atlas_segments_)) {
+  const int64_t segments = carve_state(sim).carved_segments;
+  if (!atlas.patches.empty() && (st.carved_name_.empty() || !(atlas == st.atlas_) || segments != st.atlas_segments_)) {
     char name[40];
     std::snprintf(name, sizeof name, "carved_%04d.png", sim.frame());
     std::vector<uint8_t> rgba;
-    render_carved_atlas(atlas, outline, sheet.tears, sim.carve_state(), dp, sim.fiber(), style_, rgba);
+    render_carved_atlas(atlas, outline, sheet.tears, carve_state(sim), dp, fiber_field(sim), st.style_, rgba);
     write_rgba_png((dir / name).string(), atlas.width, atlas.height, rgba);
-    carved_name_ = name;
-    atlas_ = atlas;
-    atlas_segments_ = segments;
-    ++carved_written_;
+    st.carved_name_ = name;
+    st.atlas_ = atlas;
+    st.atlas_segments_ = segments;
+    ++st.carved_written_;
   }
 
   // MTL: both materials, diffuse and alpha from the same RGBA image.
@@ -598,7 +618,7 @@ void TexturedObjWriter::write(const Simulation& sim, const std::string& stem) {
   };
   material("paper", "paper.png");
   const bool carved = !atlas.patches.empty();
-  if (carved) material("carved", carved_name_);
+  if (carved) material("carved", st.carved_name_);
   write_file_atomically((dir / (stem + ".mtl")).string(), mtl);
 
   // OBJ: mesh vertices then strip corners; texture coordinates per (vertex, material patch).

@@ -3,16 +3,16 @@
 // partial file that looks like a result.
 #pragma once
 
-#include "engine/texture_export.hpp"
-
 #include <nlohmann/json_fwd.hpp>
 
 #include <cstdint>
+#include <memory>
 #include <string>
 
 namespace pt {
 
 class Simulation;
+struct PatternStyle;  // engine/texture_export.hpp
 
 // The result document: the keys of docs/result-format.md in that order, then "systems_ms", "regions_summary"
 // and "pieces". "status" is "error", with the reason in "error" (after "status"; also in `*error` when
@@ -50,19 +50,17 @@ void write_obj(const Simulation& sim, const std::string& path);
 // before write() so the last frame's segments are carved. Throws std::runtime_error.
 class TexturedObjWriter {
  public:
-  explicit TexturedObjWriter(std::string dir, PatternStyle style = {});
+  explicit TexturedObjWriter(std::string dir);
+  TexturedObjWriter(std::string dir, const PatternStyle& style);
+  ~TexturedObjWriter();
   void write(const Simulation& sim, const std::string& stem);
-  int32_t carved_textures_written() const { return carved_written_; }
-  const std::string& carved_texture() const { return carved_name_; }  // current atlas file, "" if none
+  int32_t carved_textures_written() const;
+  const std::string& carved_texture() const;  // current atlas file, "" if none
 
  private:
-  std::string dir_;
-  PatternStyle style_;
-  bool paper_written_ = false;
-  CarvedAtlas atlas_;
-  int64_t atlas_segments_ = -1;
-  std::string carved_name_;
-  int32_t carved_written_ = 0;
+  // The atlas and style are engine/texture_export.hpp's types, which this header does not include.
+  struct State;
+  std::unique_ptr<State> state_;
 };
 
 // Estimated bytes `frames` frames of TexturedObjWriter take on disk for the sheet as it is now: paper.png

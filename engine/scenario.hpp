@@ -3,8 +3,9 @@
 // are InputError with the file and the JSON path of the problem.
 #pragma once
 
-#include "components/obstacles.hpp"
-#include "components/sheet.hpp"
+#include "../components/errors.hpp"
+#include "../components/obstacles.hpp"
+#include "../components/sheet.hpp"
 
 #include <array>
 #include <optional>
@@ -13,11 +14,6 @@
 #include <vector>
 
 namespace pt {
-
-// One clear line: "<file>: <json path>: <problem>" (or "<file>: <geometric problem>").
-struct InputError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
 
 struct DetailSettings {
   std::array<int32_t, 2> texture{0, 0};  // [width, height] px; 0,0: ~0.1 mm per pixel over the bounding box

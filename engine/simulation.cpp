@@ -5,6 +5,7 @@
 #include "engine/simulation.hpp"
 
 #include "engine/sheet_builder.hpp"
+#include "engine/simulation_internals.hpp"
 #include "systems/bending_forces.hpp"
 #include "systems/candidates.hpp"
 #include "systems/carving.hpp"
@@ -72,9 +73,7 @@ Finger& finger_of(Sheet& sheet, int32_t finger, const char* call) {
 }  // namespace
 
 void TimingReport::add(const FrameProfile& p) {
-  const double values[11] = {p.fingers,    p.forces,      p.integrate, p.regions,    p.candidates, p.clustering,
-                             p.propagation, p.remeshing, p.relaxation, p.carving, p.frame};
-  for (size_t i = 0; i < 11; ++i) systems[i].add(values[i]);
+  for (size_t i = 0; i < kSystems.size(); ++i) systems[i].add(p.*kSystems[i].ms);
   physics.add(p.physics());
   geometry.add(p.geometry());
   tearing.add(p.tearing());
@@ -649,11 +648,7 @@ int32_t Simulation::frame() const { return impl_->frame; }
 const std::string& Simulation::stop_reason() const { return impl_->stop_reason; }
 double Simulation::time() const { return impl_->time_at(impl_->frame); }
 const Sheet& Simulation::sheet() const { return impl_->sheet; }
-Sheet& Simulation::mutable_sheet() { return impl_->sheet; }
 const Scenario& Simulation::scenario() const { return impl_->scenario; }
-const FiberField& Simulation::fiber() const { return impl_->fiber; }
-const DetailParams& Simulation::detail_params() const { return impl_->detail; }
-const CarveState& Simulation::carve_state() const { return impl_->carve_state; }
 const FrameProfile& Simulation::last_profile() const { return impl_->profile; }
 const TimingReport& Simulation::timings() const { return impl_->timings; }
 const std::vector<FrameStats>& Simulation::frame_stats() const { return impl_->stats; }
@@ -662,12 +657,6 @@ const std::vector<std::string>& Simulation::invariant_violations() const { retur
 int32_t Simulation::remesh_count() const { return impl_->tearing_log.remeshes; }
 double Simulation::max_strain() const { return impl_->max_strain; }
 size_t Simulation::solver_bytes() const { return impl_->implicit ? implicit_solver_bytes(*impl_->implicit) : 0; }
-ImplicitStats Simulation::solver_stats() const {
-  ImplicitStats stats = impl_->implicit ? implicit_solver_stats(*impl_->implicit) : ImplicitStats{};
-  stats.failures += impl_->patch_failures;  // a refused patch relaxation left its lips where they were
-  return stats;
-}
-const std::vector<Candidate>& Simulation::candidates() const { return impl_->candidates; }
 int32_t Simulation::threads() const { return impl_->options.threads; }
 
 ThreadCount usable_threads(int32_t asked) {
@@ -738,5 +727,22 @@ void Simulation::notify_topology_changed() {
   refresh_after_topology_change(impl_->sheet);
   impl_->refresh_role_flags();
 }
+
+// engine/simulation_internals.hpp: the one way in to Impl from outside the class.
+struct SimulationInternals {
+  static Simulation::Impl& of(const Simulation& sim) { return *sim.impl_; }
+};
+
+const FiberField& fiber_field(const Simulation& sim) { return SimulationInternals::of(sim).fiber; }
+const DetailParams& detail_params(const Simulation& sim) { return SimulationInternals::of(sim).detail; }
+const CarveState& carve_state(const Simulation& sim) { return SimulationInternals::of(sim).carve_state; }
+const std::vector<Candidate>& tearing_candidates(const Simulation& sim) { return SimulationInternals::of(sim).candidates; }
+ImplicitStats solver_stats(const Simulation& sim) {
+  const auto& m = SimulationInternals::of(sim);
+  ImplicitStats stats = m.implicit ? implicit_solver_stats(*m.implicit) : ImplicitStats{};
+  stats.failures += m.patch_failures;  // a refused patch relaxation left its lips where they were
+  return stats;
+}
+Sheet& mutable_sheet(Simulation& sim) { return SimulationInternals::of(sim).sheet; }
 
 }  // namespace pt

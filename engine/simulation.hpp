@@ -2,12 +2,8 @@
 // (docs/architecture.md "The frame"), inside a task arena of `threads` workers.
 #pragma once
 
-#include "components/sheet.hpp"
-#include "engine/scenario.hpp"
-#include "systems/candidates.hpp"
-#include "systems/carving.hpp"
-#include "systems/fiber_field.hpp"
-#include "systems/integrate_implicit.hpp"
+#include "../components/sheet.hpp"
+#include "scenario.hpp"
 
 #include <array>
 #include <cstdint>
@@ -38,13 +34,34 @@ struct TimingStat {
   double avg() const { return count ? sum / static_cast<double>(count) : 0.0; }
 };
 
-// Names of the systems in FrameProfile order, and of the Table 1 groups.
-inline constexpr std::array<const char*, 11> kSystemNames = {
-    "fingers", "forces", "integrate", "regions", "candidates", "clustering",
-    "propagation", "remeshing", "relaxation", "carving", "frame"};
+// The systems of a frame: the one list of their names (result.json's "systems_ms", batch.json, the Python
+// module's timings) and of the FrameProfile field each one's time is in. The static_assert below catches a
+// field added without its row.
+struct SystemEntry {
+  const char* name;
+  double FrameProfile::*ms;
+};
+inline constexpr std::array<SystemEntry, 11> kSystems = {{
+    {"fingers", &FrameProfile::fingers},
+    {"forces", &FrameProfile::forces},
+    {"integrate", &FrameProfile::integrate},
+    {"regions", &FrameProfile::regions},
+    {"candidates", &FrameProfile::candidates},
+    {"clustering", &FrameProfile::clustering},
+    {"propagation", &FrameProfile::propagation},
+    {"remeshing", &FrameProfile::remeshing},
+    {"relaxation", &FrameProfile::relaxation},
+    {"carving", &FrameProfile::carving},
+    {"frame", &FrameProfile::frame},
+}};
+static_assert(sizeof(FrameProfile) == kSystems.size() * sizeof(double), "every FrameProfile field needs a kSystems row");
+
+// Per system, in kSystems order.
+template <typename T>
+using PerSystem = std::array<T, kSystems.size()>;
 
 struct TimingReport {
-  std::array<TimingStat, 11> systems;  // kSystemNames order
+  PerSystem<TimingStat> systems;
   TimingStat physics, geometry, tearing, carving, frame;
   void add(const FrameProfile& p);
 };
@@ -101,12 +118,7 @@ class Simulation {
   double time() const;      // s
 
   const Sheet& sheet() const;
-  Sheet& mutable_sheet();   // for tools that move fingers by hand; call notify_topology_changed() after edits
   const Scenario& scenario() const;
-  const FiberField& fiber() const;
-  const DetailParams& detail_params() const;
-  const CarveState& carve_state() const;
-  const std::vector<Candidate>& candidates() const;  // potential tearing points of the last frame
   const FrameProfile& last_profile() const;
   const TimingReport& timings() const;
   const std::vector<FrameStats>& frame_stats() const;
@@ -117,9 +129,6 @@ class Simulation {
   // Largest principal in-plane strain of the sheet at the end of any frame so far.
   double max_strain() const;
   int32_t remesh_count() const;
-  // Counts of the default implicit integrator so far (all zero with the projective solver): symbolic
-  // analyses (after cuts or a change of the held set), numeric factorisations, spin-brake redos, failures.
-  ImplicitStats solver_stats() const;
   // Heap bytes the default implicit integrator keeps for this sheet (0 with projective dynamics or before
   // the first substep), for memory reports.
   size_t solver_bytes() const;
@@ -150,6 +159,10 @@ class Simulation {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  // The internals the apps, tools and tests read (carving, fibres, candidates, solver counts, the mutable
+  // sheet): free functions of engine/simulation_internals.hpp, not installed, so this header names no
+  // system's type.
+  friend struct SimulationInternals;
 };
 
 // FNV-1a 64 of a state, as text.

@@ -15,6 +15,8 @@
 // The module's other files: arguments (one-line errors), scenario_bindings (Scenario built in code),
 // batch_bindings (run_batch).
 #include "engine/papertear.hpp"
+#include "engine/simulation_internals.hpp"
+#include "engine/texture_export.hpp"
 #include "python/arguments.hpp"
 
 #include <nlohmann/json.hpp>
@@ -86,7 +88,7 @@ struct PySim {
     v = std::move(bigger);
   }
   void make_room() {
-    pt::Sheet& s = sim->mutable_sheet();
+    pt::Sheet& s = pt::mutable_sheet(*sim);
     headroom(s.verts.x, old_x);
     headroom(s.verts.rest, old_rest);
     headroom(s.tris.tri, old_tri);
@@ -331,7 +333,7 @@ PYBIND11_MODULE(papertear, m) {
             const pt::Simulation& s = *p.sim;
             const pt::TimingReport& r = s.timings();
             py::dict systems;
-            for (size_t i = 0; i < pt::kSystemNames.size(); ++i) systems[pt::kSystemNames[i]] = stat(r.systems[i]);
+            for (size_t i = 0; i < pt::kSystems.size(); ++i) systems[pt::kSystems[i].name] = stat(r.systems[i]);
             return py::dict("physics"_a = stat(r.physics), "geometry"_a = stat(r.geometry), "tearing"_a = stat(r.tearing),
                             "carving"_a = stat(r.carving), "frame"_a = stat(r.frame), "systems"_a = systems);
           },
@@ -372,8 +374,8 @@ PYBIND11_MODULE(papertear, m) {
           [](PySim& p, py::handle path) {
             const std::string file = path_arg(path, "path");
             write_flushed(p, [&](const pt::Simulation& s) {
-              pt::write_pattern_png(file, s.scenario().outline, s.sheet().tears, s.carve_state(), s.detail_params(),
-                                    s.fiber());
+              pt::write_pattern_png(file, s.scenario().outline, s.sheet().tears, pt::carve_state(s),
+                                    pt::detail_params(s), pt::fiber_field(s));
             });
           },
           "path"_a, "Write the pattern at texture resolution with the detailed tears (run --png's pattern.png).")

@@ -378,7 +378,7 @@ void bind_scenario(py::module_& m) {
         s = read_document(doc, s.path);
       },
       "changes"_a,
-      "Several values at once, a nested dict merged into the document ({\"sim\": {\"solver\": \"projective\", "
+      "Several values at once, a nested dict merged into the document ({\"sim\": {\"frames\": 60, "
       "\"relaxation\": \"substep\"}}): all or none.");
   c.def("validate", &pt::validate_scenario, "Raises InputError when the scenario is invalid (it is kept valid).");
   c.def("copy", [](const pt::Scenario& s) { return s; });

@@ -3,6 +3,7 @@
 // `target_triangles` triangles, with a vertex exactly at every required point (finger positions).
 #pragma once
 
+#include "components/errors.hpp"
 #include "components/sheet.hpp"
 
 #include <stdexcept>
@@ -10,12 +11,6 @@
 #include <vector>
 
 namespace pt {
-
-// A geometric problem of the input (self-intersecting outline, point outside, ...). The message is one
-// line that names the problem; the caller adds the file name.
-struct GeometryError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
 
 struct MeshRequest {
   std::vector<Vec2> outline;           // counter-clockwise simple polygon, ≥ 3 vertices, meters

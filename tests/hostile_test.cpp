@@ -9,6 +9,7 @@
 #include "engine/result_writer.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
+#include "engine/simulation_internals.hpp"
 #include "systems/meshing.hpp"
 #include "systems/remeshing.hpp"
 #include "systems/topology.hpp"
@@ -304,7 +305,7 @@ TEST(Hostile, SheetCutIntoManySmallPieces) {
   const Scenario sc = parse_scenario(scene("many-pieces", fingers, 40, "", square, 400), "pieces.json");
   auto between = [](Simulation& sim, int frame) {
     if (frame != 0) return;
-    Sheet& s = sim.mutable_sheet();
+    Sheet& s = mutable_sheet(sim);
     for (double x : {0.025, 0.05, 0.075}) {
       const CutResult r = cut_tear(s, Vec2(x, 0), Vec2(x, 0.2));
       EXPECT_TRUE(r.cut && r.reached_boundary) << x;
@@ -353,7 +354,7 @@ TEST(Hostile, TearsMeetAtGrazingAngles) {
   const Scenario sc = parse_scenario(scene("grazing", fingers, 45, "", square, 400), "grazing.json");
   auto between = [](Simulation& sim, int frame) {
     if (frame != 0) return;
-    Sheet& s = sim.mutable_sheet();
+    Sheet& s = mutable_sheet(sim);
     const double g = 0.5 * std::numbers::pi / 180;
     const CutResult r1 = cut_tear(s, Vec2(0, 0.01), Vec2(0, 0.01) + 0.08 * Vec2(std::cos(g), -std::sin(g)));
     EXPECT_TRUE(r1.cut);
@@ -390,10 +391,10 @@ TEST(Hostile, TearRunsIntoAnotherAtGrazingAnglePulled) {
 // refused at validation, so the material is changed behind its back, as a tool with mutable_sheet() could.
 TEST(Hostile, SolverRefusingEverySubstepIsAnError) {
   Simulation sim(parse_scenario(scene("stuck", pair_apart(0.03, 0.1, 1.5), 3), "stuck.json"));
-  sim.mutable_sheet().material.young = 1e200;  // the implicit solver cannot factorise this
+  mutable_sheet(sim).material.young = 1e200;  // the implicit solver cannot factorise this
   for (int f = 0; f < 3; ++f) sim.step();
   sim.flush();
-  ASSERT_GE(sim.solver_stats().failures, 3 * 10);
+  ASSERT_GE(solver_stats(sim).failures, 3 * 10);
   nlohmann::ordered_json doc;
   std::string error;
   EXPECT_FALSE(build_result_json(sim, doc, &error));
@@ -423,7 +424,7 @@ TEST(Hostile, SheetFlungBeyondThePositionBoundStops) {
   Simulation sim(parse_scenario(scene("flung", let_go, 5), "flung.json"));
   sim.step();
   EXPECT_EQ(sim.stop_reason(), "");
-  for (Vec3& v : sim.mutable_sheet().verts.v) v = Vec3(0, 0, 1e8);  // 3.3e6 m in a frame of 1/30 s
+  for (Vec3& v : mutable_sheet(sim).verts.v) v = Vec3(0, 0, 1e8);  // 3.3e6 m in a frame of 1/30 s
   sim.step();
   ASSERT_EQ(sim.frame(), 2);
   const std::string reason = sim.stop_reason();

@@ -3,6 +3,7 @@
 // promises. Everything is checked against what the systems compute from the sheet itself, not a hash.
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
+#include "engine/simulation_internals.hpp"
 #include "systems/bending_forces.hpp"
 #include "systems/candidates.hpp"
 #include "systems/membrane_forces.hpp"
@@ -51,7 +52,7 @@ int32_t segments(const Tear& t) { return static_cast<int32_t>(t.tips.size()) - 1
 // Whole-sheet implicit substeps the run took: one numeric factorisation each, plus one per spin-brake redo
 // (the runs below need no regularised retry, which would add more).
 int64_t sheet_substeps(const Simulation& sim) {
-  const ImplicitStats st = sim.solver_stats();
+  const ImplicitStats st = solver_stats(sim);
   EXPECT_EQ(st.regularised, 0);
   EXPECT_EQ(st.failures, 0);
   return st.factorizations - st.brakes;
@@ -113,12 +114,12 @@ TEST(Simulation, FrameRunsItsSystemsInTheGraphsOrder) {
       std::vector<Candidate> listed;
       FiberSampleCache cache;
       find_candidates(sheet.verts, sheet.topo.boundary_vertices, sheet.tips, sheet.fingers, sheet.tears, sheet.material,
-                      sim.fiber(), listed, cache);
-      ASSERT_EQ(listed.size(), sim.candidates().size()) << "frame " << f;
+                      fiber_field(sim), listed, cache);
+      ASSERT_EQ(listed.size(), tearing_candidates(sim).size()) << "frame " << f;
       for (size_t c = 0; c < listed.size(); ++c) {
-        EXPECT_EQ(listed[c].vertex, sim.candidates()[c].vertex) << "frame " << f;
-        EXPECT_EQ(listed[c].kind, sim.candidates()[c].kind) << "frame " << f;
-        EXPECT_EQ(listed[c].fracture_energy, sim.candidates()[c].fracture_energy) << "frame " << f;
+        EXPECT_EQ(listed[c].vertex, tearing_candidates(sim)[c].vertex) << "frame " << f;
+        EXPECT_EQ(listed[c].kind, tearing_candidates(sim)[c].kind) << "frame " << f;
+        EXPECT_EQ(listed[c].fracture_energy, tearing_candidates(sim)[c].fracture_energy) << "frame " << f;
       }
     } else {
       ++frames_with_cuts;

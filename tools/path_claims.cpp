@@ -8,6 +8,7 @@
 //   build/bin/papertear-path-claims [--meshes 16] [--triangles N] [--relaxation substep|next_frame|patch]
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
+#include "engine/simulation_internals.hpp"
 #include "tools/path_measures.hpp"
 
 #include <CLI/CLI.hpp>
@@ -73,7 +74,7 @@ void measure_direction(const ClaimsOptions& options, const char* direction) {
   size_t violations = 0, refused = 0, untorn = 0;  // mesh invariants broken, substeps the solver refused
   auto tally = [&](const Run& r) {
     violations += r.sim->invariant_violations().size();
-    refused += static_cast<size_t>(r.sim->solver_stats().failures);
+    refused += static_cast<size_t>(solver_stats(*r.sim).failures);
   };
   for (int i = 0; i < options.meshes; ++i) {
     auto remeshed = [&](Scenario s) {

@@ -1,5 +1,7 @@
 #include "apps/viewer/recorder.hpp"
 
+#include "engine/simulation_internals.hpp"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -53,7 +55,7 @@ json session_json(const Simulation& sim, const std::string& name) {
                    {"membrane_scale", m.membrane_scale}, {"strain_limit", m.strain_limit}};
 
   // The detail noise as the simulation has it now (the viewer sets it live).
-  json d = {{"sigma", sim.detail_params().sigma}, {"omega", sim.detail_params().omega}};
+  json d = {{"sigma", detail_params(sim).sigma}, {"omega", detail_params(sim).omega}};
   if (sc.detail.texture[0] > 0 && sc.detail.texture[1] > 0)
     d["texture"] = json::array({sc.detail.texture[0], sc.detail.texture[1]});
   j["detail"] = d;

@@ -4,6 +4,7 @@
 #include <GL/gl.h>
 #include <GL/glext.h>
 
+#include "engine/simulation_internals.hpp"
 #include "systems/carving.hpp"
 #include "systems/fiber_field.hpp"
 
@@ -465,7 +466,7 @@ void Renderer::load_sheet(const Simulation& sim) {
     glBindVertexArray(0);
     obstacle_vertices_ = static_cast<int32_t>(data.size() / 6);
   }
-  const DetailParams& d = sim.detail_params();
+  const DetailParams& d = detail_params(sim);
   tex_origin_ = d.origin;
   tex_pixel_ = d.pixel_size;
   label_w_ = std::max(1, d.width);
@@ -481,7 +482,7 @@ void Renderer::load_sheet(const Simulation& sim) {
   for (int j = 0; j < ph; ++j)
     for (int i = 0; i < pw; ++i) {
       const Vec2 uv = tex_origin_ + Vec2((i + 0.5) / pw * paper_extent_.x(), (j + 0.5) / ph * paper_extent_.y());
-      const double v = fiber_sample(sim.fiber(), uv);
+      const double v = fiber_sample(fiber_field(sim), uv);
       values[static_cast<size_t>(j) * pw + i] = v;
       lo = std::min(lo, v);
       hi = std::max(hi, v);
@@ -512,7 +513,7 @@ void Renderer::load_sheet(const Simulation& sim) {
 }
 
 void Renderer::upload_labels(const Simulation& sim) {
-  const CarveState& cs = sim.carve_state();
+  const CarveState& cs = carve_state(sim);
   if (cs.carved_segments == labels_carved_) return;
   labels_carved_ = cs.carved_segments;
   glBindTexture(GL_TEXTURE_2D, label_tex_);
@@ -779,7 +780,7 @@ void Renderer::prepare_pattern(const Simulation& sim, int w, int h, const std::v
   }
   const size_t line_count = line_data_.size() / 6;
   // Points: candidates, tear tips, fingers (drawn last, largest).
-  for (const Candidate& cd : sim.candidates())
+  for (const Candidate& cd : tearing_candidates(sim))
     if (cd.vertex >= 0 && cd.vertex < s.verts.size()) put(line_data_, s.verts.rest[cd.vertex], Vec3(0.95, 0.62, 0.0));
   const size_t cand_end = line_data_.size() / 6;
   for (const Tear& tear : s.tears)

@@ -1,5 +1,7 @@
 #include "apps/viewer/sheet_view.hpp"
 
+#include "engine/simulation_internals.hpp"
+
 namespace pt::viewer {
 
 void capture_sheet_view(const Simulation& sim, const QueuedEdits& edits, SheetView& view) {
@@ -51,8 +53,8 @@ void apply_queued_edits(QueuedEdits& edits, Simulation& sim) {
   }
   edits.moves.clear();
   if (edits.material_edited) {
-    sim.mutable_sheet().material.fracture_c = edits.fracture_c;
-    sim.mutable_sheet().material.tip_damage = edits.tip_damage;
+    mutable_sheet(sim).material.fracture_c = edits.fracture_c;
+    mutable_sheet(sim).material.tip_damage = edits.tip_damage;
     edits.material_edited = false;
   }
   if (edits.propagation_edited) {

@@ -6,6 +6,7 @@
 
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
+#include "engine/simulation_internals.hpp"
 
 #include <gtest/gtest.h>
 
@@ -141,7 +142,7 @@ TEST(SheetView, LiveTearingAndDetailParametersActLikeTheScenarioValues) {
   Simulation from_file(changed), live(base);
   QueuedEdits edits = live_parameters_of(base);
   EXPECT_EQ(edits.speed, base.material.speed);
-  EXPECT_EQ(edits.sigma, live.detail_params().sigma);
+  EXPECT_EQ(edits.sigma, detail_params(live).sigma);
   edits.speed = changed.material.speed;
   edits.max_step = changed.material.max_step;
   edits.propagation_edited = true;
@@ -158,7 +159,7 @@ TEST(SheetView, LiveTearingAndDetailParametersActLikeTheScenarioValues) {
   live.flush();
   EXPECT_GT(live.sheet().tears.size(), 0u);
   EXPECT_EQ(live.state_hash(), from_file.state_hash());
-  EXPECT_EQ(live.carve_state().carved_segments, from_file.carve_state().carved_segments);
+  EXPECT_EQ(carve_state(live).carved_segments, carve_state(from_file).carved_segments);
   // And they differ from the unchanged run (the test can fail).
   Simulation unchanged(base);
   for (int f = 0; f < 60; ++f) unchanged.step();

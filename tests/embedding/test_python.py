@@ -422,10 +422,10 @@ class ScenarioInCode(unittest.TestCase):
             sc.material.yung
         sc.sheet_size = (0.3, 0.25)  # a rectangle at the origin in place of the preset
         self.assertEqual((sc.preset, sc.outline), ("", [(0.0, 0.0), (0.3, 0.0), (0.3, 0.25), (0.0, 0.25)]))
-        sc.update({"sim": {"solver": "projective", "relaxation": "substep"}})
+        sc.update({"sim": {"frames": 33, "relaxation": "substep"}})
         with self.assertRaises(papertear.InputError):
-            sc.update({"sim": {"solver": "projective", "relaxation": "patch"}})  # all or nothing
-        self.assertEqual((sc.solver, sc.relaxation), ("projective", "substep"))
+            sc.update({"sim": {"frames": 44, "fps": -1}})  # all or nothing
+        self.assertEqual((sc.to_dict()["sim"]["frames"], sc.relaxation), (33, "substep"))
         sc.remove_finger("R")
         self.assertEqual([f["name"] for f in sc.fingers], ["L"])
 
