@@ -7,7 +7,6 @@
 #include "engine/simulation_internals.hpp"
 #include "systems/bending_forces.hpp"
 #include "systems/dense_kernels.hpp"
-#include "systems/integrate.hpp"
 #include "systems/integrate_implicit.hpp"
 #include "systems/membrane_forces.hpp"
 #include "systems/topology.hpp"
@@ -231,25 +230,6 @@ void fingers_held_at_start(const Sheet& sheet, std::vector<int32_t>& held, std::
     target.push_back(f.start);
   }
 }
-
-// Physics only: 10 substeps of projective dynamics (one frame, "solver": "projective"), one core.
-void BM_PhysicsFrameProjective(benchmark::State& state) {
-  Scenario s = bench::a4_scene(static_cast<int32_t>(state.range(0)), false);
-  Sheet sheet = build_sheet(s);
-  IntegrateParams params;
-  params.dt = 1.0 / (s.sim.fps * s.sim.substeps);
-  params.iterations = s.sim.iterations;
-  ProjectiveSolverPtr solver;
-  std::vector<int32_t> held;
-  std::vector<Vec3> target;
-  fingers_held_at_start(sheet, held, target);
-  prepare_projective_solver(sheet, params, solver);
-  for (auto _ : state) {
-    for (int32_t k = 0; k < s.sim.substeps; ++k) integrate_substep(params, held, target, *solver, sheet);
-  }
-  state.counters["triangles"] = sheet.tris.size();
-}
-BENCHMARK(BM_PhysicsFrameProjective)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
 // Physics only: 10 substeps of the default linearly implicit integrator (one frame), one core. The
 // numeric factorisation of each substep dominates.

@@ -1,6 +1,6 @@
 // The frame graph of one sheet (docs/architecture.md "The frame"). Built once per sheet; each node is named
 // after the system it runs. Parallelism comes from two places: the kernels inside a node run their ranges
-// with oneTBB (forces, projective dynamics' local step) inside the sheet's task arena, and the carving of the
+// with oneTBB (forces, the factorisation) inside the sheet's task arena, and the carving of the
 // previous frame's segments runs beside this frame's physics, since it only reads tips that are fixed.
 #include "engine/simulation.hpp"
 
@@ -11,7 +11,6 @@
 #include "systems/carving.hpp"
 #include "systems/fingers.hpp"
 #include "systems/physics/grip.hpp"
-#include "systems/integrate.hpp"
 #include "systems/integrate_implicit.hpp"
 #include "systems/local_relaxation.hpp"
 #include "systems/membrane_forces.hpp"
@@ -106,11 +105,8 @@ struct Simulation::Impl {
   DetailParams detail;
   CarveState carve_state;
 
-  IntegrateParams integrate_params;
-  ProjectiveSolverPtr solver;
   ImplicitParams implicit_params;
   ImplicitSolverPtr implicit;
-  bool use_projective = false;
   MembraneParams membrane;
   std::vector<BendingStencil> bending;
   uint64_t bending_version = ~uint64_t{0};
@@ -168,26 +164,19 @@ struct Simulation::Impl {
     detail.omega = scenario.detail.omega;
 
     const Material& m = sheet.material;
-    integrate_params.dt = 1.0 / (scenario.sim.fps * scenario.sim.substeps);
-    integrate_params.gravity = scenario.sim.gravity;
-    integrate_params.iterations = scenario.sim.iterations;
-    integrate_params.damping = m.damping;
-    integrate_params.grain = options.parallel_grain;
-    integrate_params.run = [this](int32_t count, int32_t grain, const RangeTask& task) {
-      run_ranges(count, grain, task);
-    };
-    implicit_params.dt = integrate_params.dt;
-    implicit_params.gravity = integrate_params.gravity;
+    implicit_params.dt = 1.0 / (scenario.sim.fps * scenario.sim.substeps);
+    implicit_params.gravity = scenario.sim.gravity;
     implicit_params.mass_damping = m.damping;
     implicit_params.grain = options.parallel_grain;
-    implicit_params.run = integrate_params.run;
+    implicit_params.run = [this](int32_t count, int32_t grain, const RangeTask& task) {
+      run_ranges(count, grain, task);
+    };
     // Obstacles with unit normals (validated non-zero; scaled first, so a tiny normal's norm cannot
     // underflow), grown by half the sheet's thickness: its mid-surface lies that far above a table.
     implicit_params.obstacles = scenario.obstacles;
     for (Obstacle& o : implicit_params.obstacles)
       if (o.kind == Obstacle::Kind::Plane) o.normal = (o.normal / o.normal.cwiseAbs().maxCoeff()).normalized();
     implicit_params.contact_offset = 0.5 * m.thickness;
-    use_projective = scenario.sim.solver == "projective";
     membrane = membrane_params(m);
     take_propagation_params(m);
     tear_direction_from_name(scenario.tearing.direction, tearing_params.direction);  // validated
@@ -292,11 +281,6 @@ struct Simulation::Impl {
     std::vector<int32_t> held;
     std::vector<Vec3> target;
     held_vertices(alpha, held, target);
-    if (use_projective) {
-      prepare_projective_solver(sheet, integrate_params, solver);
-      integrate_substep(integrate_params, held, target, *solver, sheet);
-      return;
-    }
     hold_points.clear();
     for (size_t i = 0; i < sheet.fingers.size(); ++i) hold_points.push_back(hold_point(i, alpha));
     slipping_pinches(sheet.verts, sheet.fingers, hold_points, kPinchStiffness, implicit_params.springs);
@@ -316,7 +300,7 @@ struct Simulation::Impl {
   // strip's pull grows by up to a few newtons, so substeps that ran on unchecked after a start held the
   // fingers past 5 N (docs/tearing.md "Quasi-static tearing").
   bool stops_for_tearing() const {
-    return tearing_params.direction == TearDirection::TensionRays && !use_projective &&
+    return tearing_params.direction == TearDirection::TensionRays &&
            tearing_params.relaxation == TearRelaxation::AfterEachCut;
   }
 
@@ -580,8 +564,7 @@ struct Simulation::Impl {
   // The graph's systems in one of its orders (their creation order), on the calling thread. A sheet no
   // larger than one range of the kernels (parallel_grain) runs its frame this way: its kernels run serially
   // anyway, and the graph only moved its systems between the cores — the cut then found the sheet in the
-  // other core's cache (BM_Frame/100 on two threads, three interleaved rounds: the tearing step 17.3–18.9 →
-  // 14.4–15.7 µs, the frame 0.60–0.61 → 0.57 ms; bench/results/2026-11-23-10-notes.txt §8). Same systems,
+  // other core's cache (bench/results/2026-11-23-10-notes.txt §8). Same systems,
   // same order of their effects on the sheet (carving reads only tips cut in earlier frames), so the same
   // results.
   void run_frame_in_order() {

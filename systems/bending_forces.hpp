@@ -1,6 +1,6 @@
 // Bending: quadratic isometric bending (Bergou et al. 2006). For a sheet that is flat at rest the energy
 // is exactly quadratic, E = ½ Σ_hinges k_h ‖Σ_j K_hj x_j‖² (cotangent stencil of 4 weights per hinge),
-// so its Hessian is constant: projective dynamics puts it straight into the prefactored matrix.
+// so its Hessian is constant: it enters the implicit step's matrix as it is.
 // k_h = stiffness / (A0 + A1) (not Bergou's 3 / (A0 + A1)): calibrated so a cylindrical bend of radius r
 // has the plate energy ½ D Area / r² (see bending_forces.cpp).
 #pragma once
