@@ -90,18 +90,16 @@ struct BlockLdltParams {
   int32_t tasks = 8;                  // subtrees to aim for (a few per core, for balance)
   int32_t dissection_leaf = 1500;     // nested dissection (with coordinates) down to parts of this many block
                                       // rows, then AMD; tried from this size on
-  // The supernodal factor from this many block rows, else by columns. Measured on the A4 sheet (shared
-  // 2-core machine, best of runs): at 576 vertices the columns take 1.4 ms, supernodes 2.3 ms; at 5 162,
-  // 74-88 ms against 68-72 ms on 1 thread, 69-89 ms against 45-66 ms on 2.
+  // The supernodal factor from this many block rows, else by columns: the panels pay off only on big
+  // sheets (the crossover measured on the A4 sheet: bench/results/2026-11-22-8-notes.txt).
   int32_t min_supernodal_blocks = 2000;
   // Structure of the supernodal factor, the same for every thread count (the result is bit-identical):
   int32_t supernode_width = 16;       // block columns per supernode at most
   // Relaxed supernodes: a run of columns that are each other's parents joins one panel, with explicit
   // zeros where the columns' patterns differ, while the zeros are at most this share of its entries
-  // (runs of up to 4 columns, wider runs). Measured 2026-11-23 on the 10 000-triangle sheet (5 162
-  // vertices): CHOLMOD's rule (any run of 4, 80% zeros up to 16, 10% up to 48, else 5%, width 32) made the
-  // factorisation 0.69 GFlop for 0.57 of non-zeros, 34 / 19.6 ms on 1 / 2 threads; this rule 28 / 17 ms.
-  // With the AVX2 kernels a narrow product costs little, and the zeros cost flops, memory and scatter.
+  // (runs of up to 4 columns, wider runs). Fewer explicit zeros than CHOLMOD's rule: with the AVX2
+  // kernels a narrow product costs little, and the zeros cost flops, memory and scatter
+  // (bench/results/2026-11-23-11-notes.txt).
   double relaxed_zeros_narrow = 0.3;
   double relaxed_zeros = 0.1;
   double chunk_flops = 2e6;           // a supernode is split into row chunks of about this much work ...

@@ -10,12 +10,9 @@
 // resisted by bending alone and one linear solve per substep gives membrane forces that balance the
 // fingers. The price: a numeric factorisation per substep, by the 3x3-block LDLᵀ of systems/block_ldlt.hpp
 // (ordering and row patterns reused until the topology or the held set changes).
-// Tried and measured (2026-11-22, BM_PhysicsFrameImplicit): reusing an earlier factorisation as the
-// preconditioner of CG on the current matrix needs 4.7 iterations at 100 triangles and fails to converge
-// in 12 at 1 000 — a small change of a triangle's rotation moves its huge in-plane stiffness out of plane,
-// which the stale factor does not know. CHOLMOD supernodal (libsuitesparse, serial OpenBLAS) beat Eigen's
-// SimplicialLDLT at 10 000 triangles (0.82 s against ~3 s per frame, CPU, machine under load) but was 1.5x
-// slower at 100; the block LDLᵀ gains at every size (1.1–1.2 s at 10 000) with no new dependency.
+// Why a fresh factorisation each substep: an earlier factor as the preconditioner of CG does not know a
+// triangle's rotation, which moves its huge in-plane stiffness out of plane, and CG then fails to converge
+// on 1 000 triangles; CHOLMOD was slower on small sheets (bench/results/2026-12-01-readme-history.md).
 //
 // Per substep, with h the substep, K the stiffness at the current state (rotations frozen), f the
 // membrane + bending forces and f_ext gravity:
@@ -27,11 +24,8 @@
 // 2μ‖sym G‖² + 2κμ‖skew G‖² + λ tr²G of an in-plane gradient G; out of plane the tension part of the
 // geometric stiffness, (g_aᵀ Σ⁺ g_b)(I − RRᵀ). κ = (μ + λ)(σ₁ + σ₂ − 2)/(μ (σ₁ + σ₂)), clamped ≥ 0, makes the
 // in-plane block the exact Hessian of the corotated energy (its twist eigenvalue, Smith et al. 2019): an
-// in-plane spin costs nothing at rest. Measured 2026-11-22: with κ = 1 (‖∇u‖², the earlier code) every
-// spin was penalised by 4μ, and a sheet that lands curled unfolds through spins (isometric bending of a
-// curved sheet), so it crept as through honey — the viscous force h (K − H) v carried a third of a
-// hanging sheet's weight after 5 s (now all of it). It did not inflate finger forces: those went up in
-// the tearing scenarios (fig14 16–17 N → 19–20 N, fig12 0.8–0.9 kN → 1.5–2.7 kN, fewer tears).
+// in-plane spin costs nothing at rest. With κ = 1 (‖∇u‖²) every spin costs 4μ, and a sheet that lands curled,
+// which unfolds through spins (isometric bending of a curved sheet), creeps as through honey.
 // Energy check (the spin brake): a linear step rotates triangles linearly, which stretches them by θ²/2
 // for a rotation θ per step (out of plane mostly: a curved sheet released from rest, 3.6e-3 rad per step
 // is enough at paper's stiffness). After the solve the true membrane energy at x⁺ is compared with the
