@@ -311,7 +311,7 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::
   }
   result["pieces"] = std::move(pieces);
 
-  // The work of the default implicit integrator (zeros with "solver": "projective"): symbolic analyses
+  // The work of the implicit integrator: symbolic analyses
   // (after cuts or a change of the held set), numeric factorisations, spin-brake redos, solves that needed a
   // diagonal shift, and rejected substeps.
   const ImplicitStats solver = solver_stats(sim);
@@ -500,76 +500,62 @@ double estimated_obj_bytes(const Simulation& sim, int64_t frames) {
   return paper + frame * static_cast<double>(frames);
 }
 
-void TexturedObjWriter::write(const Simulation& sim, const std::string& stem) {
-  State& st = *state_;
-  namespace fs = std::filesystem;
-  const Sheet& sheet = sim.sheet();
-  const DetailParams& dp = detail_params(sim);
-  const fs::path dir(st.dir_);
-  if (dp.width <= 0 || dp.height <= 0 || !(dp.pixel_size > 0)) {  // no texture: the plain mesh
-    write_obj(sim, (dir / (stem + ".obj")).string());
-    return;
-  }
-  const std::vector<Vec2>& outline = sim.scenario().outline;
-  if (!st.paper_written_) {
-    std::vector<uint8_t> rgba;
-    render_carved_texture_rgba(outline, carve_state(sim), dp, fiber_field(sim), 0, st.style_, rgba);
-    write_rgba_png((dir / "paper.png").string(), dp.width, dp.height, rgba);
-    st.paper_written_ = true;
-  }
+namespace {
+// A support strip beyond lip edge a→b of a triangle on tear side `label`.
+struct Strip {
+  int32_t label, a, b;
+  Vec2 ra, rb;  // outer corners, pattern
+  Vec3 xa, xb;  // outer corners, 3D
+};
 
-  // Side labels of the triangles along the tears, and their support strips: lip edges (boundary edges of a
-  // labelled triangle whose two ends lie on a tear's lip) pushed outwards in the pattern by the strip width,
-  // carried to 3D by the triangle's deformation gradient F = [x1 − x0, x2 − x0] · rest_inv.
-  const int32_t nv = sheet.verts.size(), nt = sheet.tris.size();
-  std::vector<int32_t> side;
-  assign_triangle_sides(sheet.verts.rest, sheet.verts.tear, sheet.tris.tri, sheet.tears, side);
-  struct Strip {
-    int32_t label, a, b;
-    Vec2 ra, rb;  // outer corners, pattern
-    Vec3 xa, xb;  // outer corners, 3D
-  };
+// The support strips: lip edges (boundary edges of a labelled triangle whose two ends lie on a tear's lip)
+// pushed outwards in the pattern by the strip width w, carried to 3D by the triangle's deformation gradient
+// F = [x1 − x0, x2 − x0] · rest_inv. `side`: the side label of each triangle.
+std::vector<Strip> support_strips(const Sheet& sheet, const std::vector<int32_t>& side, double w) {
+  const int32_t nt = sheet.tris.size();
   std::vector<Strip> strips;
-  const double w = support_strip_width(dp);
-  {
-    std::vector<std::pair<uint64_t, int32_t>> edges;  // (edge key, triangle * 3 + corner)
-    edges.reserve(static_cast<size_t>(nt) * 3);
-    for (int32_t t = 0; t < nt; ++t)
-      for (int k = 0; k < 3; ++k) {
-        const int32_t a = sheet.tris.tri[t][k], b = sheet.tris.tri[t][(k + 1) % 3];
-        edges.push_back({(uint64_t(uint32_t(std::min(a, b))) << 32) | uint32_t(std::max(a, b)), t * 3 + k});
-      }
-    std::sort(edges.begin(), edges.end());
-    for (size_t i = 0; i < edges.size();) {
-      size_t j = i;
-      while (j < edges.size() && edges[j].first == edges[i].first) ++j;
-      const int32_t t = edges[i].second / 3, k = edges[i].second % 3;
-      if (j - i == 1 && side[static_cast<size_t>(t)] > 0) {
-        const Tri& tri = sheet.tris.tri[t];
-        const int32_t a = tri[k], b = tri[(k + 1) % 3];
-        const int32_t tear = label_tear(side[static_cast<size_t>(t)]);
-        if (sheet.verts.tear[a] == tear && sheet.verts.tear[b] == tear) {
-          const Vec2 &ra = sheet.verts.rest[a], &rb = sheet.verts.rest[b];
-          const Vec2 e = rb - ra;
-          const double len = e.norm();
-          if (len > 0) {
-            const Vec2 out = Vec2(e.y(), -e.x()) / len * w;  // right of a→b: outside a counter-clockwise triangle
-            Eigen::Matrix<double, 3, 2> X;
-            X.col(0) = sheet.verts.x[tri[1]] - sheet.verts.x[tri[0]];
-            X.col(1) = sheet.verts.x[tri[2]] - sheet.verts.x[tri[0]];
-            Vec3 off = X * sheet.tris.rest_inv[t] * out;
-            if (!off.allFinite()) off = Vec3::Zero();
-            strips.push_back({side[static_cast<size_t>(t)], a, b, ra + out, rb + out, sheet.verts.x[a] + off,
-                              sheet.verts.x[b] + off});
-          }
+  std::vector<std::pair<uint64_t, int32_t>> edges;  // (edge key, triangle * 3 + corner)
+  edges.reserve(static_cast<size_t>(nt) * 3);
+  for (int32_t t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const int32_t a = sheet.tris.tri[t][k], b = sheet.tris.tri[t][(k + 1) % 3];
+      edges.push_back({(uint64_t(uint32_t(std::min(a, b))) << 32) | uint32_t(std::max(a, b)), t * 3 + k});
+    }
+  std::sort(edges.begin(), edges.end());
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+    const int32_t t = edges[i].second / 3, k = edges[i].second % 3;
+    if (j - i == 1 && side[static_cast<size_t>(t)] > 0) {
+      const Tri& tri = sheet.tris.tri[t];
+      const int32_t a = tri[k], b = tri[(k + 1) % 3];
+      const int32_t tear = label_tear(side[static_cast<size_t>(t)]);
+      if (sheet.verts.tear[a] == tear && sheet.verts.tear[b] == tear) {
+        const Vec2 &ra = sheet.verts.rest[a], &rb = sheet.verts.rest[b];
+        const Vec2 e = rb - ra;
+        const double len = e.norm();
+        if (len > 0) {
+          const Vec2 out = Vec2(e.y(), -e.x()) / len * w;  // right of a→b: outside a counter-clockwise triangle
+          Eigen::Matrix<double, 3, 2> X;
+          X.col(0) = sheet.verts.x[tri[1]] - sheet.verts.x[tri[0]];
+          X.col(1) = sheet.verts.x[tri[2]] - sheet.verts.x[tri[0]];
+          Vec3 off = X * sheet.tris.rest_inv[t] * out;
+          if (!off.allFinite()) off = Vec3::Zero();
+          strips.push_back({side[static_cast<size_t>(t)], a, b, ra + out, rb + out, sheet.verts.x[a] + off,
+                            sheet.verts.x[b] + off});
         }
       }
-      i = j;
     }
+    i = j;
   }
+  return strips;
+}
 
-  // Atlas windows: per label, the pixel box of its triangles and strips, one pixel of margin, snapped to
-  // label tiles (so small changes of the lip keep the layout and the PNG), clipped to the texture.
+// Atlas windows: per label, the pixel box of its triangles and strips, one pixel of margin, snapped to
+// label tiles (so small changes of the lip keep the layout and the PNG), clipped to the texture.
+std::vector<std::pair<int32_t, PixelRect>> atlas_windows(const Sheet& sheet, const std::vector<int32_t>& side,
+                                                         const std::vector<Strip>& strips, const DetailParams& dp) {
+  const int32_t nt = sheet.tris.size();
   std::vector<int32_t> labels;
   for (int32_t t = 0; t < nt; ++t)
     if (side[static_cast<size_t>(t)] > 0) labels.push_back(side[static_cast<size_t>(t)]);
@@ -596,32 +582,39 @@ void TexturedObjWriter::write(const Simulation& sim, const std::string& stem) {
     const int32_t x1 = std::clamp(snap_up(hi.x()), 0, dp.width), y1 = std::clamp(snap_up(hi.y()), 0, dp.height);
     if (x1 > x0 && y1 > y0) windows.push_back({labels[k], PixelRect{x0, y0, x1 - x0, y1 - y0}});
   }
-  const CarvedAtlas atlas = pack_carved_atlas(windows);
-  const int64_t segments = carve_state(sim).carved_segments;
-  if (!atlas.patches.empty() && (st.carved_name_.empty() || !(atlas == st.atlas_) || segments != st.atlas_segments_)) {
-    char name[40];
-    std::snprintf(name, sizeof name, "carved_%04d.png", sim.frame());
-    std::vector<uint8_t> rgba;
-    render_carved_atlas(atlas, outline, sheet.tears, carve_state(sim), dp, fiber_field(sim), st.style_, rgba);
-    write_rgba_png((dir / name).string(), atlas.width, atlas.height, rgba);
-    st.carved_name_ = name;
-    st.atlas_ = atlas;
-    st.atlas_segments_ = segments;
-    ++st.carved_written_;
-  }
+  return windows;
+}
 
-  // MTL: both materials, diffuse and alpha from the same RGBA image.
+// MTL: both materials, diffuse and alpha from the same RGBA image; "carved" only when `carved`.
+std::string textured_mtl(const Simulation& sim, bool carved, const std::string& carved_name) {
   std::string mtl = "# papertear " + sim.scenario().name + " frame " + std::to_string(sim.frame()) + "\n";
   auto material = [&](const char* name, const std::string& png) {
     mtl += std::string("newmtl ") + name + "\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nd 1\nillum 1\n";
     mtl += "map_Kd " + png + "\nmap_d " + png + "\n";
   };
   material("paper", "paper.png");
-  const bool carved = !atlas.patches.empty();
-  if (carved) material("carved", st.carved_name_);
-  write_file_atomically((dir / (stem + ".mtl")).string(), mtl);
+  if (carved) material("carved", carved_name);
+  return mtl;
+}
 
-  // OBJ: mesh vertices then strip corners; texture coordinates per (vertex, material patch).
+// What the textured OBJ of one frame is made of.
+struct TexturedObjParts {
+  const std::string& stem;           // of the .mtl it names
+  const std::vector<int32_t>& side;  // side label of each triangle, 0 away from the tears
+  const std::vector<Strip>& strips;
+  const CarvedAtlas& atlas;
+  bool carved;  // the MTL has the carved material
+};
+
+// OBJ: mesh vertices then strip corners; texture coordinates per (vertex, material patch).
+std::string textured_obj(const Simulation& sim, const TexturedObjParts& parts) {
+  const Sheet& sheet = sim.sheet();
+  const DetailParams& dp = detail_params(sim);
+  const int32_t nv = sheet.verts.size(), nt = sheet.tris.size();
+  const std::string& stem = parts.stem;
+  const std::vector<int32_t>& side = parts.side;
+  const std::vector<Strip>& strips = parts.strips;
+  const CarvedAtlas& atlas = parts.atlas;
   const Vec2 tex_size = dp.pixel_size * Vec2(dp.width, dp.height);
   std::string s;
   s.reserve(256 + static_cast<size_t>(nv) * 64 + static_cast<size_t>(nt) * 48 + strips.size() * 200);
@@ -677,8 +670,52 @@ void TexturedObjWriter::write(const Simulation& sim, const std::string& stem) {
   }
   s += vts;
   s += "usemtl paper\n" + faces_paper;
-  if (carved && !faces_carved.empty()) s += "usemtl carved\n" + faces_carved;
-  write_file_atomically((dir / (stem + ".obj")).string(), s);
+  if (parts.carved && !faces_carved.empty()) s += "usemtl carved\n" + faces_carved;
+  return s;
+}
+}  // namespace
+
+void TexturedObjWriter::write(const Simulation& sim, const std::string& stem) {
+  State& st = *state_;
+  namespace fs = std::filesystem;
+  const Sheet& sheet = sim.sheet();
+  const DetailParams& dp = detail_params(sim);
+  const fs::path dir(st.dir_);
+  if (dp.width <= 0 || dp.height <= 0 || !(dp.pixel_size > 0)) {  // no texture: the plain mesh
+    write_obj(sim, (dir / (stem + ".obj")).string());
+    return;
+  }
+  const std::vector<Vec2>& outline = sim.scenario().outline;
+  if (!st.paper_written_) {
+    std::vector<uint8_t> rgba;
+    render_carved_texture_rgba(outline, carve_state(sim), dp, fiber_field(sim), 0, st.style_, rgba);
+    write_rgba_png((dir / "paper.png").string(), dp.width, dp.height, rgba);
+    st.paper_written_ = true;
+  }
+
+  // Side labels of the triangles along the tears, and their support strips.
+  std::vector<int32_t> side;
+  assign_triangle_sides(sheet.verts.rest, sheet.verts.tear, sheet.tris.tri, sheet.tears, side);
+  const std::vector<Strip> strips = support_strips(sheet, side, support_strip_width(dp));
+
+  const CarvedAtlas atlas = pack_carved_atlas(atlas_windows(sheet, side, strips, dp));
+  const int64_t segments = carve_state(sim).carved_segments;
+  if (!atlas.patches.empty() && (st.carved_name_.empty() || !(atlas == st.atlas_) || segments != st.atlas_segments_)) {
+    char name[40];
+    std::snprintf(name, sizeof name, "carved_%04d.png", sim.frame());
+    std::vector<uint8_t> rgba;
+    render_carved_atlas(atlas, outline, sheet.tears, carve_state(sim), dp, fiber_field(sim), st.style_, rgba);
+    write_rgba_png((dir / name).string(), atlas.width, atlas.height, rgba);
+    st.carved_name_ = name;
+    st.atlas_ = atlas;
+    st.atlas_segments_ = segments;
+    ++st.carved_written_;
+  }
+
+  const bool carved = !atlas.patches.empty();
+  write_file_atomically((dir / (stem + ".mtl")).string(), textured_mtl(sim, carved, st.carved_name_));
+  write_file_atomically((dir / (stem + ".obj")).string(),
+                        textured_obj(sim, TexturedObjParts{stem, side, strips, atlas, carved}));
 }
 
 }  // namespace pt

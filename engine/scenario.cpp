@@ -647,25 +647,9 @@ void validate_obstacles(const Scenario& s, const std::vector<Vec2>& outline) {
   }
 }
 
-}  // namespace
-
-void validate_scenario(const Scenario& s) {
+// Sheet: the outline (`outline`, at `outline_path` in the file) and the mesh it asks for.
+void validate_sheet(const Scenario& s, const std::vector<Vec2>& outline, const std::string& outline_path) {
   const std::string& file = s.path;
-  // An empty name is fine for scenarios built in code; files always get one (default: the file stem).
-  if (!s.name.empty() && !is_safe_name(s.name))
-    fail(file, "name", "\"" + s.name + "\" cannot name an output directory (empty, '.', '..', '/' or control characters)");
-
-  // Sheet. A scenario built in code may name a preset and leave the outline to the sheet builder.
-  const std::string outline_path = s.preset.empty() ? "sheet.outline" : "sheet.preset";
-  std::vector<Vec2> preset;
-  if (s.outline.empty() && !s.preset.empty()) {
-    try {
-      preset = preset_outline(s.preset);
-    } catch (const GeometryError& e) {
-      fail(file, outline_path, e.what());
-    }
-  }
-  const std::vector<Vec2>& outline = preset.empty() ? s.outline : preset;
   for (size_t i = 0; i < outline.size(); ++i)
     check_vec(file, child(outline_path, i), outline[i].data(), 2, kMaxCoordinate);
   if (const std::string problem = outline_problem(outline); !problem.empty()) fail(file, outline_path, problem);
@@ -688,8 +672,10 @@ void validate_scenario(const Scenario& s) {
              " of memory; at most " + std::to_string(kMaxSheetTriangles) + " (about " +
              fmt_bytes(estimated_sheet_bytes(kMaxSheetTriangles)) + ") are accepted (docs/memory.md)");
   check_finite(file, "sheet.mesh_rotation_deg", s.mesh_rotation_deg);
+}
 
-  // Material.
+void validate_material(const Scenario& s) {
+  const std::string& file = s.path;
   const Material& m = s.material;
   check_positive(file, "material.thickness", m.thickness);
   check_plausible(file, "material.thickness", m.thickness, kMinThickness, kMaxThickness, "m");
@@ -711,16 +697,20 @@ void validate_scenario(const Scenario& s) {
   check_positive(file, "material.max_step", m.max_step);
   check_range(file, "material.fiber_floor", m.fiber_floor, 0, 1, false);
   check_non_negative(file, "material.min_step", m.min_step);
+}
 
-  // Detail.
+void validate_detail(const Scenario& s) {
+  const std::string& file = s.path;
   const auto& tex = s.detail.texture;
   for (size_t i = 0; i < 2; ++i) check_int(file, child("detail.texture", i), tex[i], 0, kMaxTexture);
   if ((tex[0] == 0) != (tex[1] == 0))
     fail(file, "detail.texture", "give both width and height, or [0, 0] for the default resolution");
   check_positive(file, "detail.sigma", s.detail.sigma);
   check_range(file, "detail.omega", s.detail.omega, 0, 1, false);
+}
 
-  // Sim.
+void validate_sim(const Scenario& s) {
+  const std::string& file = s.path;
   check_positive(file, "sim.fps", s.sim.fps);
   check_plausible(file, "sim.fps", s.sim.fps, kMinFps, kMaxFps, "frames/s");
   check_int(file, "sim.substeps", s.sim.substeps, 1, kMaxSubsteps);
@@ -739,8 +729,10 @@ void validate_scenario(const Scenario& s) {
   if (s.sim.relaxation_radius > kMaxCoordinate)
     fail(file, "sim.relaxation_radius",
          "absurd size " + fmt(s.sim.relaxation_radius) + " (at most " + fmt(kMaxCoordinate) + ")");
+}
 
-  // Tearing.
+void validate_tearing(const Scenario& s) {
+  const std::string& file = s.path;
   // The names the tearing step knows (systems/tearing/tearing_step.hpp): "fan" is the bisector's other name.
   if (TearDirection d; !tear_direction_from_name(s.tearing.direction, d))
     fail(file, "tearing.direction",
@@ -749,8 +741,11 @@ void validate_scenario(const Scenario& s) {
   if (s.tearing.radius > kMaxCoordinate)
     fail(file, "tearing.radius", "absurd size " + fmt(s.tearing.radius) + " (at most " + fmt(kMaxCoordinate) + ")");
   if (s.tearing.snap) check_range(file, "tearing.snap", *s.tearing.snap, 0, 0.45, false);
+}
 
-  // Fingers. None is fine in code (a sheet falling freely); files must have some (parse_scenario).
+// Fingers. None is fine in code (a sheet falling freely); files must have some (parse_scenario).
+void validate_fingers(const Scenario& s, const std::vector<Vec2>& outline) {
+  const std::string& file = s.path;
   for (size_t i = 0; i < s.fingers.size(); ++i) {
     const FingerSpec& f = s.fingers[i];
     const std::string p = child("fingers", i);
@@ -778,8 +773,10 @@ void validate_scenario(const Scenario& s) {
     check_positive(file, child(p, "grip"), f.grip);
     if (f.grip > kMaxGrip) fail(file, child(p, "grip"), "absurd grip " + fmt(f.grip) + " N (at most " + fmt(kMaxGrip) + ")");
   }
+}
 
-  // Hands.
+void validate_hands(const Scenario& s) {
+  const std::string& file = s.path;
   std::vector<int> owner(s.fingers.size(), -1);
   for (size_t i = 0; i < s.hands.size(); ++i) {
     const HandSpec& h = s.hands[i];
@@ -811,10 +808,11 @@ void validate_scenario(const Scenario& s) {
     }
     validate_key_times(file, child(p, "keys"), times);
   }
+}
 
-  validate_obstacles(s, outline);
-
-  // Far from the origin doubles do not resolve the sheet's strains (engine/scenario.hpp).
+// Far from the origin doubles do not resolve the sheet's strains (engine/scenario.hpp).
+void validate_sheet_reach(const Scenario& s, const std::vector<Vec2>& outline) {
+  const std::string& file = s.path;
   const SheetReach reach = sheet_reach(s, outline);
   if (reach.carried + reach.fall > kMaxSheetPosition) {
     const double room = std::max(0.0, kMaxSheetPosition - reach.carried);
@@ -825,6 +823,36 @@ void validate_scenario(const Scenario& s) {
              " m/s^2 let a released sheet fall " + fmt(reach.fall) + " m, beyond the +-" + fmt(kMaxSheetPosition) +
              " m within which positions are resolved; at most " + fmt(max_frames) + " frames");
   }
+}
+
+}  // namespace
+
+void validate_scenario(const Scenario& s) {
+  const std::string& file = s.path;
+  // An empty name is fine for scenarios built in code; files always get one (default: the file stem).
+  if (!s.name.empty() && !is_safe_name(s.name))
+    fail(file, "name", "\"" + s.name + "\" cannot name an output directory (empty, '.', '..', '/' or control characters)");
+
+  // Sheet. A scenario built in code may name a preset and leave the outline to the sheet builder.
+  const std::string outline_path = s.preset.empty() ? "sheet.outline" : "sheet.preset";
+  std::vector<Vec2> preset;
+  if (s.outline.empty() && !s.preset.empty()) {
+    try {
+      preset = preset_outline(s.preset);
+    } catch (const GeometryError& e) {
+      fail(file, outline_path, e.what());
+    }
+  }
+  const std::vector<Vec2>& outline = preset.empty() ? s.outline : preset;
+  validate_sheet(s, outline, outline_path);
+  validate_material(s);
+  validate_detail(s);
+  validate_sim(s);
+  validate_tearing(s);
+  validate_fingers(s, outline);
+  validate_hands(s);
+  validate_obstacles(s, outline);
+  validate_sheet_reach(s, outline);
 }
 
 double estimated_sheet_bytes(int64_t triangles) {

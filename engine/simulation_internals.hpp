@@ -19,7 +19,7 @@ const DetailParams& detail_params(const Simulation& sim);
 const CarveState& carve_state(const Simulation& sim);
 // Potential tearing points of the last frame.
 const std::vector<Candidate>& tearing_candidates(const Simulation& sim);
-// Counts of the default implicit integrator so far (all zero with the projective solver): symbolic
+// Counts of the implicit integrator so far: symbolic
 // analyses (after cuts or a change of the held set), numeric factorisations, spin-brake redos, failures.
 ImplicitStats solver_stats(const Simulation& sim);
 // For tools that move fingers or change the material by hand; call sim.notify_topology_changed() after

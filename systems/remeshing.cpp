@@ -391,33 +391,138 @@ void apply_collapse(Cut& C, int32_t v, int32_t q) {
   }
 }
 
-}  // namespace
+// The segment a cut walks: from boundary vertex p towards the pattern point next; the vertices it creates
+// belong to tear tear_id.
+struct Segment {
+  int32_t p;
+  Vec2 next;
+  int32_t tear_id;
+  const RemeshParams& params;
+};
 
-CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_direction, int32_t tear_id,
-                           const RemeshParams& params, Sheet& sheet) {
-  CutResult result;
-  if (p < 0 || p >= sheet.verts.size() || !next.allFinite()) return result;
-
-  // The fans of the sheet at entry; rebuilt locally if a caller changed triangles without a refresh.
-  Topology local;
-  const Topology* topo = &sheet.topo;
-  if (sheet.topo.version != sheet.topology_version ||
-      sheet.topo.vertex_count() != sheet.verts.size()) {
-    std::vector<int32_t> piece;
-    build_topology(sheet.tris.tri, sheet.verts.size(), local, piece);
-    topo = &local;
-  }
-  if (topo->boundary_next[p] < 0) return result;  // p must be a boundary vertex
-
-  Cut C(sheet, *topo);
-  const Vec2 d0 = next - C.r(p);
-
-  // ---- 1–2. Walk and split (paper §5.3: "p_next has to be integrated into the boundary"). ----
-  std::vector<int32_t> path{p};
+// What the walk leaves behind: the chain of mesh edges path[0] = p, ..., path.back().
+struct WalkedPath {
+  std::vector<int32_t> path;
   bool reached_boundary = false;
+};
+
+// The triangle t = (cur, a, b) of cur's fan that the segment runs into, with the lengths the walk snaps by.
+struct WalkTriangle {
+  int32_t cur, t, a, b;
+  Vec2 pc, A, B;
+  double dn;        // distance from cur to next
+  double h;         // mean edge of the triangle
+  double r_vertex;  // snap radius to a vertex
+  double r_edge;    // "very close" to an edge
+  double ab_len;
+  double inside;    // distance of next from ab, > 0 on cur's side
+};
+
+// A vertex may be snapped to unless it is already on the path, or reaching it would run along the
+// boundary (an edge of the start vertex's open fan).
+bool snappable_vertex(const Cut& C, const std::vector<int32_t>& path, int32_t cur, int32_t u) {
+  return std::find(path.begin(), path.end(), u) == path.end() && !C.boundary_edge(cur, u);
+}
+
+// Last step of the walk, `next` in triangle wt.t: snap it to a vertex, onto an edge, or insert it (1 → 3).
+void end_walk_in_triangle(const Segment& seg, const WalkTriangle& wt, Cut& C, WalkedPath& walked) {
+  const int32_t cur = wt.cur, p = seg.p, t = wt.t, a = wt.a, b = wt.b;
+  const Vec2 &pc = wt.pc, &A = wt.A, &B = wt.B, &next = seg.next;
+  const double dn = wt.dn, h = wt.h, r_vertex = wt.r_vertex, r_edge = wt.r_edge, ab_len = wt.ab_len;
+  const double inside = wt.inside;
+  const RemeshParams& params = seg.params;
+  const int32_t tear_id = seg.tear_id;
+  std::vector<int32_t>& path = walked.path;
+  bool& reached_boundary = walked.reached_boundary;
+  auto snappable = [&](int32_t u) { return snappable_vertex(C, path, cur, u); };
+
+  // The snap radius of a corner is a fraction of its shorter edge in this triangle: the slivers a
+  // nearby point would create are thin relative to those edges.
+  const double l_ca = (A - pc).norm(), l_cb = (B - pc).norm();
+  int32_t snap_v = -1;
+  double best = std::numeric_limits<double>::infinity();
+  for (int32_t u : {a, b}) {
+    const double radius = std::max(params.snap_fraction * std::min(ab_len, u == a ? l_ca : l_cb), kOnFeature * h);
+    const double dist = (C.r(u) - next).norm();
+    if (snappable(u) && dist < radius && dist < best) {
+      best = dist;
+      snap_v = u;
+    }
+  }
+  if (snap_v >= 0) {
+    path.push_back(snap_v);
+    reached_boundary = C.boundary_vertex(snap_v);
+    return;
+  }
+  // The walk already stands on a vertex close to next.
+  if (cur != p && dn < std::max(params.snap_fraction * std::min(l_ca, l_cb), kOnFeature * h)) return;
+  // Nearest edge of the triangle whose interior faces next (edges of the start vertex's open fan
+  // excluded: the tear cannot run along the boundary).
+  const std::array<std::pair<int32_t, int32_t>, 3> edges{{{cur, a}, {a, b}, {b, cur}}};
+  int32_t best_edge = -1;
+  double best_dist = 0, best_s = 0;
+  for (int32_t k = 0; k < 3; ++k) {
+    const auto [u, w] = edges[k];
+    if ((u == cur || w == cur) && C.boundary_edge(u, w)) continue;
+    const Vec2 U = C.r(u), W = C.r(w);
+    const double s = (next - U).dot(W - U) / (W - U).squaredNorm();
+    if (!(s > 0 && s < 1)) continue;  // nearest to a corner, not to the edge
+    const double dist = (U + s * (W - U) - next).norm();
+    if (best_edge < 0 || dist < best_dist) {
+      best_edge = k;
+      best_dist = dist;
+      best_s = s;
+    }
+  }
+  // Snap onto the edge when very close (a 1 → 3 insertion would be a sliver, or flat when next is on
+  // the edge), or when the insertion would make an angle below min_angle_deg and a snap well inside
+  // the edge avoids it.
+  bool on_edge = best_edge >= 0 && best_dist < r_edge;
+  if (!on_edge && best_edge >= 0 && best_dist < 0.5 * r_vertex && best_s > 0.1 && best_s < 0.9) {
+    const double worst = std::min({min_angle(pc, A, next), min_angle(A, B, next), min_angle(B, pc, next)});
+    on_edge = worst < params.min_angle_deg * std::numbers::pi / 180.0;
+  }
+  if (!(inside > 0) && !on_edge) {
+    // next is outside the triangle within r_edge: it can only go onto edge ab.
+    on_edge = true;
+    best_edge = 1;
+    best_s = std::clamp((next - A).dot(B - A) / (B - A).squaredNorm(), 0.0, 1.0);
+  }
+  if (on_edge) {
+    const auto [u, w] = edges[best_edge];
+    // A point at an end of the edge is that vertex: splitting the edge there would leave a sliver
+    // (measured: a vertex 2·10⁻⁸ m from another, pivots of condition 10¹⁷ in the implicit solve). Go to
+    // the vertex, or end the cut where it stands when the vertex may not be snapped to.
+    const int32_t end_vertex = best_s < kEdgeEnd ? u : 1 - best_s < kEdgeEnd ? w : -1;
+    if (end_vertex >= 0) {
+      if (end_vertex != cur && snappable(end_vertex)) {
+        path.push_back(end_vertex);
+        reached_boundary = C.boundary_vertex(end_vertex);
+      }
+      return;
+    }
+    const bool boundary = C.boundary_edge(u, w);
+    path.push_back(C.split_edge(u, w, best_s, tear_id));  // best_s in [kEdgeEnd, 1 − kEdgeEnd]
+    reached_boundary = boundary;
+  } else {
+    path.push_back(C.insert_in_triangle(t, next, tear_id));
+  }
+}
+
+// ---- 1–2. Walk and split (paper §5.3: "p_next has to be integrated into the boundary"). ----
+// A path of fewer than two vertices means the segment could not be walked.
+WalkedPath walk_and_split(const Segment& seg, Cut& C) {
+  const int32_t p = seg.p;
+  const Vec2& next = seg.next;
+  const RemeshParams& params = seg.params;
+  const int32_t tear_id = seg.tear_id;
+  WalkedPath walked;
+  std::vector<int32_t>& path = walked.path;
+  bool& reached_boundary = walked.reached_boundary;
+  path.push_back(p);
   bool from_crossing = false;  // cur was created on a crossed edge (do not turn back into its old side)
   int32_t cur = p;
-  const int32_t max_steps = 4 * (sheet.tris.size() + 4);
+  const int32_t max_steps = 4 * (C.S.tris.size() + 4);
   for (int32_t step = 0; step < max_steps; ++step) {
     const Vec2 pc = C.r(cur);
     const Vec2 d = next - pc;
@@ -434,87 +539,13 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
     const double r_edge = std::max(0.2 * r_vertex, kOnFeature * h);  // "very close" to an edge
     if (cur == p && dn < 1e-6 * h) break;              // degenerate segment
 
-    // A vertex may be snapped to unless it is already on the path, or reaching it would run along the
-    // boundary (an edge of the start vertex's open fan).
-    auto snappable = [&](int32_t u) {
-      return std::find(path.begin(), path.end(), u) == path.end() && !C.boundary_edge(cur, u);
-    };
+    auto snappable = [&](int32_t u) { return snappable_vertex(C, path, cur, u); };
 
     const double ab_len = (B - A).norm();
     const double inside = cross2(B - A, next - A) / ab_len;  // distance of next from ab, > 0 on cur's side
     if (inside >= -r_edge) {
-      // `next` is in this triangle: snap it to a vertex, onto an edge, or insert it (1 → 3).
-      // The snap radius of a corner is a fraction of its shorter edge in this triangle: the slivers a
-      // nearby point would create are thin relative to those edges.
-      const double l_ca = (A - pc).norm(), l_cb = (B - pc).norm();
-      int32_t snap_v = -1;
-      double best = std::numeric_limits<double>::infinity();
-      for (int32_t u : {a, b}) {
-        const double radius = std::max(params.snap_fraction * std::min(ab_len, u == a ? l_ca : l_cb), kOnFeature * h);
-        const double dist = (C.r(u) - next).norm();
-        if (snappable(u) && dist < radius && dist < best) {
-          best = dist;
-          snap_v = u;
-        }
-      }
-      if (snap_v >= 0) {
-        path.push_back(snap_v);
-        reached_boundary = C.boundary_vertex(snap_v);
-        break;
-      }
-      // The walk already stands on a vertex close to next.
-      if (cur != p && dn < std::max(params.snap_fraction * std::min(l_ca, l_cb), kOnFeature * h)) break;
-      // Nearest edge of the triangle whose interior faces next (edges of the start vertex's open fan
-      // excluded: the tear cannot run along the boundary).
-      const std::array<std::pair<int32_t, int32_t>, 3> edges{{{cur, a}, {a, b}, {b, cur}}};
-      int32_t best_edge = -1;
-      double best_dist = 0, best_s = 0;
-      for (int32_t k = 0; k < 3; ++k) {
-        const auto [u, w] = edges[k];
-        if ((u == cur || w == cur) && C.boundary_edge(u, w)) continue;
-        const Vec2 U = C.r(u), W = C.r(w);
-        const double s = (next - U).dot(W - U) / (W - U).squaredNorm();
-        if (!(s > 0 && s < 1)) continue;  // nearest to a corner, not to the edge
-        const double dist = (U + s * (W - U) - next).norm();
-        if (best_edge < 0 || dist < best_dist) {
-          best_edge = k;
-          best_dist = dist;
-          best_s = s;
-        }
-      }
-      // Snap onto the edge when very close (a 1 → 3 insertion would be a sliver, or flat when next is on
-      // the edge), or when the insertion would make an angle below min_angle_deg and a snap well inside
-      // the edge avoids it.
-      bool on_edge = best_edge >= 0 && best_dist < r_edge;
-      if (!on_edge && best_edge >= 0 && best_dist < 0.5 * r_vertex && best_s > 0.1 && best_s < 0.9) {
-        const double worst = std::min({min_angle(pc, A, next), min_angle(A, B, next), min_angle(B, pc, next)});
-        on_edge = worst < params.min_angle_deg * std::numbers::pi / 180.0;
-      }
-      if (!(inside > 0) && !on_edge) {
-        // next is outside the triangle within r_edge: it can only go onto edge ab.
-        on_edge = true;
-        best_edge = 1;
-        best_s = std::clamp((next - A).dot(B - A) / (B - A).squaredNorm(), 0.0, 1.0);
-      }
-      if (on_edge) {
-        const auto [u, w] = edges[best_edge];
-        // A point at an end of the edge is that vertex: splitting the edge there would leave a sliver
-        // (measured: a vertex 2·10⁻⁸ m from another, pivots of condition 10¹⁷ in the implicit solve). Go to
-        // the vertex, or end the cut where it stands when the vertex may not be snapped to.
-        const int32_t end_vertex = best_s < kEdgeEnd ? u : 1 - best_s < kEdgeEnd ? w : -1;
-        if (end_vertex >= 0) {
-          if (end_vertex != cur && snappable(end_vertex)) {
-            path.push_back(end_vertex);
-            reached_boundary = C.boundary_vertex(end_vertex);
-          }
-          break;
-        }
-        const bool boundary = C.boundary_edge(u, w);
-        path.push_back(C.split_edge(u, w, best_s, tear_id));  // best_s in [kEdgeEnd, 1 − kEdgeEnd]
-        reached_boundary = boundary;
-      } else {
-        path.push_back(C.insert_in_triangle(t, next, tear_id));
-      }
+      end_walk_in_triangle(seg, WalkTriangle{cur, t, a, b, pc, A, B, dn, h, r_vertex, r_edge, ab_len, inside},
+                           C, walked);
       break;
     }
 
@@ -553,23 +584,25 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
     }
     cur = path.back();
   }
-  if (path.size() < 2) {
-    C.rollback();
-    return result;
-  }
+  return walked;
+}
 
-  // ---- 3. Cut: duplicate the path vertices, the copy takes the right-hand triangles. ----
+// ---- 3. Cut: duplicate the path vertices, the copy takes the right-hand triangles. ----
+// copy[i] is the copy of path[i]. Returns false, the sheet untouched, when a fan does not have the expected
+// shape.
+bool cut_along_path(const Segment& seg, const WalkedPath& walked, Cut& C, std::vector<int32_t>& copy) {
+  const std::vector<int32_t>& path = walked.path;
+  const bool reached_boundary = walked.reached_boundary;
+  const int32_t p = seg.p, tear_id = seg.tear_id;
+  Sheet& sheet = C.S;
   const size_t k = path.size() - 1;
   const size_t dup_count = reached_boundary ? k + 1 : k;
   std::vector<std::vector<int32_t>> right(dup_count);
   for (size_t i = 0; i < dup_count; ++i)
-    if (!right_side(C, path, i, right[i])) {
-      C.rollback();
-      return result;
-    }
+    if (!right_side(C, path, i, right[i])) return false;
   // kNew marks the vertices of the last remesh only.
   for (int32_t v = 0; v < C.n0; ++v) sheet.verts.flags[v] &= static_cast<uint8_t>(~kNew);
-  std::vector<int32_t> copy(dup_count);
+  copy.assign(dup_count, 0);
   for (size_t i = 0; i < dup_count; ++i) {
     const int32_t v = path[i];
     copy[i] = C.add_vertex(sheet.verts.rest[v], sheet.verts.x[v], tear_id);
@@ -584,18 +617,33 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
   sheet.verts.flags[p] &= static_cast<uint8_t>(~kTip);
   sheet.verts.flags[copy[0]] &= static_cast<uint8_t>(~kTip);
   if (!reached_boundary) sheet.verts.flags[path.back()] |= kTip;
+  return true;
+}
 
-  // ---- 4. Split or remove p (Fig. 8). ----
+// The start vertex p of a cut and what decides whether it stays a corner of both lips.
+struct CutStart {
+  int32_t p;
+  int32_t p_copy;           // its copy on the right-hand lip
+  Vec2 previous_direction;  // of the tear before this segment (zero: always keep p)
+  Vec2 d0;                  // of this segment
+};
+
+// ---- 4. Split or remove p (Fig. 8). ----
+// Returns the removed vertices, each with the vertex it merged into.
+std::vector<std::pair<int32_t, int32_t>> remove_straight_start(const CutStart& start, const RemeshParams& params,
+                                                               Cut& C) {
+  const int32_t p = start.p;
+  const Vec2 &previous_direction = start.previous_direction, &d0 = start.d0;
   std::vector<std::pair<int32_t, int32_t>> removed;  // (vertex, vertex it merged into)
   const double turn = std::atan2(std::abs(cross2(previous_direction, d0)), previous_direction.dot(d0));
   bool held = false;
-  for (const Finger& f : sheet.fingers) held = held || f.vertex == p;
+  for (const Finger& f : C.S.fingers) held = held || f.vertex == p;
   if (previous_direction.squaredNorm() > 0 && d0.squaredNorm() > 0 && turn <= params.split_angle && !held) {
     // Removing p from both lips keeps the area only when both lips come back along the same line, i.e. the
     // back neighbours are the two copies of the previous tear vertex: each lip's boundary a–p–b becomes the
     // straight a–b, one lip gains the wedge (a, p, b) that the other loses.
     const auto [next_l, prev_l] = boundary_neighbours(C, p);
-    const auto [next_r, prev_r] = boundary_neighbours(C, copy[0]);
+    const auto [next_r, prev_r] = boundary_neighbours(C, start.p_copy);
     const bool mirrored = prev_l >= 0 && next_r >= 0 && prev_l != next_r && next_l >= 0 && prev_r >= 0 &&
                           C.r(prev_l) == C.r(next_r) && C.r(next_l) == C.r(prev_r);
     if (mirrored) {
@@ -610,27 +658,34 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
         return best;
       };
       const int32_t into_l = choose(p, prev_l, next_l);
-      const int32_t into_r = choose(copy[0], next_r, prev_r);
+      const int32_t into_r = choose(start.p_copy, next_r, prev_r);
       if (into_l >= 0 && into_r >= 0) {
         apply_collapse(C, p, into_l);
-        apply_collapse(C, copy[0], into_r);
-        removed.push_back({copy[0], into_r});
+        apply_collapse(C, start.p_copy, into_r);
+        removed.push_back({start.p_copy, into_r});
         removed.push_back({p, into_l});
       }
     }
   }
+  return removed;
+}
 
-  // ---- 5. Compaction: dead triangles and removed vertices go by swap-with-last. ----
-  // Only the triangles this cut touched, moved or renamed are visited, and they are handed to the local
-  // topology refresh with every vertex whose fan they change.
-  Triangles& T = sheet.tris;
-  Vertices& V = sheet.verts;
-  LocalTopologyChange change;
-  std::vector<int32_t> dead;
+// ---- 5. Compaction: dead triangles and removed vertices go by swap-with-last. ----
+// Only the triangles this cut touched, moved or renamed are visited, and they are handed to the local
+// topology refresh with every vertex whose fan they change.
+
+struct TriangleCompaction {
+  std::vector<int32_t> dead;                       // descending ids
+  std::vector<std::pair<int32_t, int32_t>> moves;  // (id before the cut, slot now) of moved survivors
+};
+
+TriangleCompaction compact_dead_triangles(const Cut& C, Triangles& T) {
+  TriangleCompaction tc;
+  std::vector<int32_t>& dead = tc.dead;
+  std::vector<std::pair<int32_t, int32_t>>& tri_moves = tc.moves;
   for (int32_t t : C.touched)
     if (T.tri[t][0] < 0) dead.push_back(t);
   std::sort(dead.rbegin(), dead.rend());
-  std::vector<std::pair<int32_t, int32_t>> tri_moves;  // (id before the cut, slot now) of moved survivors
   for (int32_t t : dead) {
     const int32_t last = T.size() - 1;
     if (t != last) {
@@ -641,21 +696,30 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
     }
     T.resize(last);
   }
-  // A triangle id from before the compaction (touched, or from the entry topology) → its slot now, −1 if dead.
-  auto tri_now = [&](int32_t t) {
-    for (const auto& m : tri_moves)
-      if (m.first == t) return m.second;
-    if (std::binary_search(dead.rbegin(), dead.rend(), t)) return -1;
-    return t < T.size() ? t : -1;
-  };
-  std::vector<int32_t>& changed = change.triangles;
-  for (int32_t t : C.touched)
-    if (const int32_t now = tri_now(t); now >= 0) changed.push_back(now);
-  for (const auto& m : tri_moves) changed.push_back(m.second);
+  return tc;
+}
 
-  const int32_t nv = V.size();
-  std::vector<std::pair<int32_t, int32_t>> vertex_moves;  // (id before, slot now) of moved vertices
-  std::vector<int32_t> gone;
+// A triangle id from before the compaction (touched, or from the entry topology) → its slot now, −1 if dead.
+int32_t triangle_now(const TriangleCompaction& tc, const Triangles& T, int32_t t) {
+  for (const auto& m : tc.moves)
+    if (m.first == t) return m.second;
+  if (std::binary_search(tc.dead.rbegin(), tc.dead.rend(), t)) return -1;
+  return t < T.size() ? t : -1;
+}
+
+struct VertexCompaction {
+  std::vector<std::pair<int32_t, int32_t>> removed;  // (vertex, vertex it merged into)
+  int32_t count_before = 0;                          // vertices before the compaction
+  std::vector<int32_t> gone;                         // removed vertices, descending
+  std::vector<std::pair<int32_t, int32_t>> moves;    // (id before, slot now) of moved vertices
+};
+
+VertexCompaction compact_removed_vertices(const std::vector<std::pair<int32_t, int32_t>>& removed, Vertices& V) {
+  VertexCompaction vc;
+  vc.removed = removed;
+  vc.count_before = V.size();
+  std::vector<std::pair<int32_t, int32_t>>& vertex_moves = vc.moves;
+  std::vector<int32_t>& gone = vc.gone;
   for (const auto& rm : removed) gone.push_back(rm.first);
   std::sort(gone.rbegin(), gone.rend());
   for (int32_t v : gone) {
@@ -668,20 +732,38 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
     }
     V.resize(last);
   }
-  auto vertex_now = [&](int32_t v) {  // id before → id now, −1 for a removed vertex
-    for (const auto& m : vertex_moves)
-      if (m.first == v) return m.second;
-    if (std::find(gone.begin(), gone.end(), v) != gone.end()) return -1;
-    return v;
-  };
-  auto remap = [&](int32_t v) {
-    if (v < 0 || v >= nv) return v;
-    for (const auto& rm : removed)
-      if (rm.first == v) v = rm.second;  // a removed vertex lives on in the one it merged into
-    return vertex_now(v);
-  };
+  return vc;
+}
+
+// Vertex id before the compaction → id now, −1 for a removed vertex.
+int32_t vertex_now(const VertexCompaction& vc, int32_t v) {
+  for (const auto& m : vc.moves)
+    if (m.first == v) return m.second;
+  if (std::find(vc.gone.begin(), vc.gone.end(), v) != vc.gone.end()) return -1;
+  return v;
+}
+
+// Like vertex_now, but a removed vertex lives on in the one it merged into; ids that were no vertex stay.
+int32_t remapped_vertex(const VertexCompaction& vc, int32_t v) {
+  if (v < 0 || v >= vc.count_before) return v;
+  for (const auto& rm : vc.removed)
+    if (rm.first == v) v = rm.second;  // a removed vertex lives on in the one it merged into
+  return vertex_now(vc, v);
+}
+
+// Renames the moved vertices in their triangles and lists, for the local topology refresh, every triangle
+// and vertex the cut changed.
+LocalTopologyChange rename_moved_vertices(const Cut& C, const TriangleCompaction& tc, const VertexCompaction& vc,
+                                          bool reached_boundary, Triangles& T) {
+  LocalTopologyChange change;
+  auto tri_now = [&](int32_t t) { return triangle_now(tc, T, t); };
+  std::vector<int32_t>& changed = change.triangles;
+  for (int32_t t : C.touched)
+    if (const int32_t now = tri_now(t); now >= 0) changed.push_back(now);
+  for (const auto& m : tc.moves) changed.push_back(m.second);
+
   // Rename the moved vertices in their triangles: those of the entry fan and the touched ones.
-  for (const auto& [before, now] : vertex_moves) {
+  for (const auto& [before, now] : vc.moves) {
     std::vector<int32_t> holders;
     if (before < C.n0)
       for (int32_t old : C.topo.fan(before))
@@ -702,27 +784,66 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
     for (int32_t c : T.tri[t]) change.vertices.push_back(c);
   for (const auto& [t, corners] : C.undo)
     for (int32_t c : corners)
-      if (const int32_t now = vertex_now(c); now >= 0) change.vertices.push_back(now);
+      if (const int32_t now = vertex_now(vc, c); now >= 0) change.vertices.push_back(now);
   std::sort(change.vertices.begin(), change.vertices.end());
   change.vertices.erase(std::unique(change.vertices.begin(), change.vertices.end()), change.vertices.end());
-  for (int32_t t : dead)
+  for (int32_t t : tc.dead)
     if (t < C.nt0) change.dead_triangles.push_back(t);
   std::sort(change.dead_triangles.begin(), change.dead_triangles.end());
-  for (const auto& m : tri_moves)
+  for (const auto& m : tc.moves)
     if (m.first < C.nt0) change.moved_triangles.push_back(m);
   change.pieces_may_split = reached_boundary;
+  return change;
+}
 
-  for (Finger& f : sheet.fingers) f.vertex = remap(f.vertex);
-  for (Tip& tp : sheet.tips) tp.vertex = remap(tp.vertex);
+}  // namespace
+
+CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_direction, int32_t tear_id,
+                           const RemeshParams& params, Sheet& sheet) {
+  CutResult result;
+  if (p < 0 || p >= sheet.verts.size() || !next.allFinite()) return result;
+
+  // The fans of the sheet at entry; rebuilt locally if a caller changed triangles without a refresh.
+  Topology local;
+  const Topology* topo = &sheet.topo;
+  if (sheet.topo.version != sheet.topology_version ||
+      sheet.topo.vertex_count() != sheet.verts.size()) {
+    std::vector<int32_t> piece;
+    build_topology(sheet.tris.tri, sheet.verts.size(), local, piece);
+    topo = &local;
+  }
+  if (topo->boundary_next[p] < 0) return result;  // p must be a boundary vertex
+
+  Cut C(sheet, *topo);
+  const Vec2 d0 = next - C.r(p);
+  const Segment seg{p, next, tear_id, params};
+
+  const WalkedPath walked = walk_and_split(seg, C);
+  std::vector<int32_t> copy;
+  if (walked.path.size() < 2 || !cut_along_path(seg, walked, C, copy)) {
+    C.rollback();
+    return result;
+  }
+  const bool reached_boundary = walked.reached_boundary;
+  const std::vector<std::pair<int32_t, int32_t>> removed =
+      remove_straight_start(CutStart{p, copy[0], previous_direction, d0}, params, C);
+
+  const TriangleCompaction tc = compact_dead_triangles(C, sheet.tris);
+  const VertexCompaction vc = compact_removed_vertices(removed, sheet.verts);
+  const LocalTopologyChange change = rename_moved_vertices(C, tc, vc, reached_boundary, sheet.tris);
+
+  for (Finger& f : sheet.fingers) f.vertex = remapped_vertex(vc, f.vertex);
+  for (Tip& tp : sheet.tips) tp.vertex = remapped_vertex(vc, tp.vertex);
   if (topo == &sheet.topo) refresh_after_local_change(change, sheet);
   else refresh_after_topology_change(sheet);
 
+  const int32_t tip = vertex_now(vc, walked.path.back());
   result.cut = true;
   result.reached_boundary = reached_boundary;
-  result.tip_vertex = reached_boundary ? -1 : vertex_now(path.back());
-  result.end = V.rest[vertex_now(path.back())];
+  result.tip_vertex = reached_boundary ? -1 : tip;
+  result.end = sheet.verts.rest[tip];
   result.new_vertices = C.created;
-  result.removed_vertices = static_cast<int32_t>(gone.size());
+  result.removed_vertices = static_cast<int32_t>(vc.gone.size());
   return result;
 }
 

@@ -245,20 +245,29 @@ void compact_fans(Topology& topo) {
   topo.vt_unused = 0;
 }
 
-void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet) {
-  Vertices& V = sheet.verts;
-  Triangles& T = sheet.tris;
-  Topology& topo = sheet.topo;
-  const int32_t nv = V.size(), nt = T.size();
-  const int32_t nv_before = topo.vertex_count();
-  const int32_t nt_before = static_cast<int32_t>(topo.neighbor.size());
-  if (topo.version != sheet.topology_version || static_cast<int32_t>(topo.boundary_next.size()) != nv_before ||
-      static_cast<int32_t>(topo.edge_hinge.size()) != nt_before) {
-    refresh_after_topology_change(sheet);
-    return;
-  }
+namespace {
+// Sheet sizes around a local change: now (the arrays') and before (the topology's).
+struct ChangeSizes {
+  int32_t nv, nt;
+  int32_t nv_before, nt_before;
+};
+
+bool contains(const Tri& t, int32_t v) { return t[0] == v || t[1] == v || t[2] == v; }
+
+// The stamps of the current change: v is an affected vertex; old triangle t was rewritten, removed or moved.
+bool is_affected(const LocalRefreshScratch& scratch, int32_t v) { return scratch.stamp[v] == scratch.generation; }
+bool was_rewritten(const LocalRefreshScratch& scratch, int32_t t) {
+  return scratch.tri_stamp[t] == scratch.generation;
+}
+// A triangle id of the topology before the change → its id now (−1: removed).
+int32_t old_tri_now(const LocalRefreshScratch& scratch, int32_t t) {
+  return was_rewritten(scratch, t) ? scratch.tri_now[t] : t;
+}
+
+// Stamps the affected vertices and the old triangles the change touched, under a new generation.
+void stamp_change(const LocalTopologyChange& change, const ChangeSizes& n, LocalRefreshScratch& scratch) {
+  const int32_t nv = n.nv, nv_before = n.nv_before, nt_before = n.nt_before;
   const std::vector<int32_t>& A = change.vertices;  // affected vertices, ascending
-  thread_local LocalRefreshScratch scratch;
   const size_t vertex_ids = static_cast<size_t>(std::max(nv, nv_before));
   if (scratch.stamp.size() < vertex_ids) scratch.stamp.resize(vertex_ids, 0);
   if (scratch.tri_stamp.size() < static_cast<size_t>(nt_before)) {
@@ -272,8 +281,6 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   }
   const uint32_t generation = scratch.generation;
   for (int32_t v : A) scratch.stamp[v] = generation;
-  auto affected = [&](int32_t v) { return scratch.stamp[v] == generation; };
-  auto contains = [](const Tri& t, int32_t v) { return t[0] == v || t[1] == v || t[2] == v; };
   // Old triangles the change touched: rewritten in place (their slot is a changed triangle), moved, removed.
   auto mark_old = [&](int32_t t, int32_t now) {
     if (t < nt_before) {
@@ -284,21 +291,17 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   for (int32_t t : change.triangles) mark_old(t, t);
   for (const auto& m : change.moved_triangles) mark_old(m.first, m.second);
   for (int32_t t : change.dead_triangles) mark_old(t, -1);
-  auto rewritten = [&](int32_t t) { return scratch.tri_stamp[t] == generation; };
-  // A triangle id of the topology before the change → its id now (−1: removed).
-  auto tri_now = [&](int32_t t) { return rewritten(t) ? scratch.tri_now[t] : t; };
+}
 
-  T.corner_force.resize(nt, {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()});
-  T.region.resize(nt, -1);
-  T.side.resize(nt, 0);
-  T.rest_inv.resize(nt);
-  T.rest_area.resize(nt);
-  for (int32_t t : change.triangles) rest_data_of(V.rest, T.tri[t], T.rest_inv[t], T.rest_area[t]);
-
-  // Hinges the change removes: every hinge at an affected vertex, and at the ids past the new end (removed
-  // vertices, or the old ids of the ones moved into their slots), found through the old fans and edges. An
-  // old triangle the change left alone still has its corners; only for the few it rewrote, removed or moved
-  // is the hinge's own edge read.
+// Hinges the change removes: every hinge at an affected vertex, and at the ids past the new end (removed
+// vertices, or the old ids of the ones moved into their slots), found through the old fans and edges. An
+// old triangle the change left alone still has its corners; only for the few it rewrote, removed or moved
+// is the hinge's own edge read. Into scratch.dropped, ascending and unique.
+void collect_dropped_hinges(const LocalTopologyChange& change, const ChangeSizes& n, const Topology& topo,
+                            const Triangles& T, LocalRefreshScratch& scratch) {
+  const std::vector<int32_t>& A = change.vertices;
+  const int32_t nv = n.nv, nv_before = n.nv_before;
+  auto rewritten = [&](int32_t t) { return was_rewritten(scratch, t); };
   std::vector<int32_t>& dropped = scratch.dropped;
   dropped.clear();
   auto drop_hinges_at = [&](int32_t v) {
@@ -318,9 +321,15 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
   for (int32_t v = nv; v < nv_before; ++v) drop_hinges_at(v);
   std::sort(dropped.begin(), dropped.end());
   dropped.erase(std::unique(dropped.begin(), dropped.end()), dropped.end());
+}
 
-  // Fans: an affected vertex's fan is its old fan (renamed, without the removed triangles and those that let
-  // go of it) plus the changed triangles that hold it. The others hold no changed, moved or removed triangle.
+// Fans: an affected vertex's fan is its old fan (renamed, without the removed triangles and those that let
+// go of it) plus the changed triangles that hold it. The others hold no changed, moved or removed triangle.
+void refresh_affected_fans(const LocalTopologyChange& change, const ChangeSizes& n, const Triangles& T,
+                           LocalRefreshScratch& scratch, Topology& topo) {
+  const std::vector<int32_t>& A = change.vertices;
+  const int32_t nv = n.nv, nt = n.nt, nv_before = n.nv_before;
+  auto tri_now = [&](int32_t t) { return old_tri_now(scratch, t); };
   for (int32_t v = nv; v < nv_before; ++v) topo.vt_unused += topo.fans[v].capacity;
   topo.fans.resize(nv);
   std::vector<int32_t>& fan = scratch.fan;
@@ -336,13 +345,13 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
     store_fan(v, fan, topo);
   }
   if (topo.vt_unused > 64 && 2 * static_cast<size_t>(topo.vt_unused) > topo.vt_tri.size()) compact_fans(topo);
+}
 
-  // Neighbours and hinges across the edges at an affected vertex: both triangles of such an edge are around
-  // an affected vertex, so pairing the half-edges of those triangles finds them all (an edge pairs exactly two
-  // triangles, as in build_topology; more stay unpaired). The other edges, and every triangle away from the
-  // change, keep their neighbours and hinges: they are the same triangles under the same ids.
-  topo.neighbor.resize(nt, {-1, -1, -1});
-  topo.edge_hinge.resize(nt, {-1, -1, -1});
+// The half-edges at an affected vertex of the triangles around one (scratch.half_edges), each linked to the
+// first on its edge, that first to its twin and its count.
+void pair_half_edges_at_affected(const std::vector<int32_t>& A, const Topology& topo, const Triangles& T,
+                                 LocalRefreshScratch& scratch) {
+  auto affected = [&](int32_t v) { return is_affected(scratch, v); };
   std::vector<int32_t>& around = scratch.around;
   around.clear();
   for (int32_t v : A) around.insert(around.end(), topo.fan(v).begin(), topo.fan(v).end());
@@ -370,6 +379,13 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
     he[k].first = first;
     if (++he[first].count == 2) he[first].twin = k;
   }
+}
+
+// Sets the neighbours and hinges of the paired half-edges; the new hinges take the dropped slots in
+// ascending order, then the end. Returns how many hinges were placed.
+size_t place_paired_hinges(const Triangles& T, const LocalRefreshScratch& scratch, Topology& topo) {
+  const auto& he = scratch.half_edges;
+  const std::vector<int32_t>& dropped = scratch.dropped;
   size_t fresh = 0;  // hinges placed so far: they take the dropped slots in ascending order, then the end
   for (const auto& e : he) {
     const auto& e_first = he[e.first];
@@ -396,8 +412,13 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
     topo.edge_hinge[e.t][e.i] = slot;
     topo.edge_hinge[e1.t][e1.i] = slot;
   }
-  // Dropped slots left over: filled from the end, highest first (a slot above is already settled). A moved
-  // hinge's two triangles are found in its first vertex's fan (already up to date).
+  return fresh;
+}
+
+// Dropped slots left over: filled from the end, highest first (a slot above is already settled). A moved
+// hinge's two triangles are found in its first vertex's fan (already up to date).
+void fill_left_over_hinge_slots(const std::vector<int32_t>& dropped, size_t fresh, const Triangles& T,
+                                Topology& topo) {
   for (size_t k = dropped.size(); k-- > fresh;) {
     const int32_t slot = dropped[k], last = static_cast<int32_t>(topo.hinges.size()) - 1;
     if (slot != last) {
@@ -408,12 +429,16 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
     }
     topo.hinges.pop_back();
   }
+}
 
-  // Boundary links, masses and flags of the affected vertices (in fan order: the same last-wins and
-  // summation order as the full refresh).
+// Boundary links, masses and flags of the affected vertices (in fan order: the same last-wins and
+// summation order as the full refresh).
+void refresh_affected_boundary(const std::vector<int32_t>& A, int32_t nv, const Material& material,
+                               const Triangles& T, LocalRefreshScratch& scratch, Topology& topo, Vertices& V) {
+  auto affected = [&](int32_t v) { return is_affected(scratch, v); };
   topo.boundary_next.resize(nv, -1);
   topo.boundary_prev.resize(nv, -1);
-  const double areal_density = sheet.material.density * sheet.material.thickness;
+  const double areal_density = material.density * material.thickness;
   for (int32_t v : A) {
     int32_t next = -1, prev = -1;
     double mass = 0.0;
@@ -452,21 +477,65 @@ void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet)
     }
     V.flags[v] = f;
   }
+}
 
-  // Pieces: a cut that reached the boundary may part the sheet (flood fill again); otherwise the changed
-  // triangles kept their parent's piece and only the numbering by lowest triangle may need restoring.
-  if (change.pieces_may_split) {
-    topo.piece_count = flood_fill_pieces(topo.neighbor, T.piece);
+// Pieces: a cut that reached the boundary may part the sheet (flood fill again); otherwise the changed
+// triangles kept their parent's piece and only the numbering by lowest triangle may need restoring.
+void refresh_pieces(bool pieces_may_split, int32_t nt, Topology& topo, std::vector<int32_t>& piece) {
+  if (pieces_may_split) {
+    topo.piece_count = flood_fill_pieces(topo.neighbor, piece);
   } else if (topo.piece_count > 1) {
     std::vector<int32_t> order(topo.piece_count, -1);  // old piece id → new, by first appearance
     int32_t next_id = 0;
     for (int32_t t = 0; t < nt && next_id < topo.piece_count; ++t)
-      if (order[T.piece[t]] < 0) order[T.piece[t]] = next_id++;
+      if (order[piece[t]] < 0) order[piece[t]] = next_id++;
     bool same = true;
     for (int32_t p = 0; p < topo.piece_count; ++p) same = same && order[p] == p;
     if (!same)
-      for (int32_t& p : T.piece) p = order[p];
+      for (int32_t& p : piece) p = order[p];
   }
+}
+}  // namespace
+
+void refresh_after_local_change(const LocalTopologyChange& change, Sheet& sheet) {
+  Vertices& V = sheet.verts;
+  Triangles& T = sheet.tris;
+  Topology& topo = sheet.topo;
+  const int32_t nv = V.size(), nt = T.size();
+  const int32_t nv_before = topo.vertex_count();
+  const int32_t nt_before = static_cast<int32_t>(topo.neighbor.size());
+  if (topo.version != sheet.topology_version || static_cast<int32_t>(topo.boundary_next.size()) != nv_before ||
+      static_cast<int32_t>(topo.edge_hinge.size()) != nt_before) {
+    refresh_after_topology_change(sheet);
+    return;
+  }
+  const ChangeSizes sizes{nv, nt, nv_before, nt_before};
+  const std::vector<int32_t>& A = change.vertices;  // affected vertices, ascending
+  thread_local LocalRefreshScratch scratch;
+  stamp_change(change, sizes, scratch);
+
+  T.corner_force.resize(nt, {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()});
+  T.region.resize(nt, -1);
+  T.side.resize(nt, 0);
+  T.rest_inv.resize(nt);
+  T.rest_area.resize(nt);
+  for (int32_t t : change.triangles) rest_data_of(V.rest, T.tri[t], T.rest_inv[t], T.rest_area[t]);
+
+  collect_dropped_hinges(change, sizes, topo, T, scratch);
+  refresh_affected_fans(change, sizes, T, scratch, topo);
+
+  // Neighbours and hinges across the edges at an affected vertex: both triangles of such an edge are around
+  // an affected vertex, so pairing the half-edges of those triangles finds them all (an edge pairs exactly two
+  // triangles, as in build_topology; more stay unpaired). The other edges, and every triangle away from the
+  // change, keep their neighbours and hinges: they are the same triangles under the same ids.
+  topo.neighbor.resize(nt, {-1, -1, -1});
+  topo.edge_hinge.resize(nt, {-1, -1, -1});
+  pair_half_edges_at_affected(A, topo, T, scratch);
+  const size_t fresh = place_paired_hinges(T, scratch, topo);
+  fill_left_over_hinge_slots(scratch.dropped, fresh, T, topo);
+
+  refresh_affected_boundary(A, nv, sheet.material, T, scratch, topo, V);
+  refresh_pieces(change.pieces_may_split, nt, topo, T.piece);
 
   sheet.topology_version += 1;
   topo.version = sheet.topology_version;
@@ -478,11 +547,11 @@ double total_rest_area(const Triangles& tris) {
   return a;
 }
 
-std::string check_mesh_invariants(const Sheet& sheet, double expected_area) {
-  const Vertices& V = sheet.verts;
-  const Triangles& T = sheet.tris;
+namespace {
+// Each check below returns what is wrong, empty (or null) when nothing is.
+
+std::string array_length_problem(const Vertices& V, const Triangles& T) {
   const int32_t nv = V.size(), nt = T.size();
-  std::ostringstream err;
   if (static_cast<int32_t>(V.v.size()) != nv || static_cast<int32_t>(V.rest.size()) != nv ||
       static_cast<int32_t>(V.mass.size()) != nv || static_cast<int32_t>(V.flags.size()) != nv ||
       static_cast<int32_t>(V.force.size()) != nv || static_cast<int32_t>(V.tear.size()) != nv)
@@ -490,6 +559,13 @@ std::string check_mesh_invariants(const Sheet& sheet, double expected_area) {
   if (static_cast<int32_t>(T.rest_inv.size()) != nt || static_cast<int32_t>(T.rest_area.size()) != nt ||
       static_cast<int32_t>(T.corner_force.size()) != nt || static_cast<int32_t>(T.piece.size()) != nt)
     return "triangle arrays differ in length";
+  return {};
+}
+
+// Corners in range, pattern counter-clockwise.
+std::string triangle_problem(const Vertices& V, const Triangles& T) {
+  const int32_t nv = V.size(), nt = T.size();
+  std::ostringstream err;
   for (int32_t t = 0; t < nt; ++t) {
     for (int32_t c : T.tri[t])
       if (c < 0 || c >= nv) {
@@ -503,7 +579,13 @@ std::string check_mesh_invariants(const Sheet& sheet, double expected_area) {
       return err.str();
     }
   }
-  // Edge manifoldness.
+  return {};
+}
+
+// Edge manifoldness.
+std::string edge_manifold_problem(const Triangles& T, int32_t nv) {
+  const int32_t nt = T.size();
+  std::ostringstream err;
   std::vector<std::pair<int64_t, int32_t>> edges;
   edges.reserve(3 * nt);
   for (int32_t t = 0; t < nt; ++t)
@@ -532,10 +614,12 @@ std::string check_mesh_invariants(const Sheet& sheet, double expected_area) {
         return err.str();
       }
     }
-  // Fan connectivity: the triangles around each vertex form one edge-connected fan.
-  Topology topo;
-  std::vector<int32_t> piece;
-  build_topology(T.tri, nv, topo, piece);
+  return {};
+}
+
+// Fan connectivity: the triangles around each vertex form one edge-connected fan.
+std::string fan_connectivity_problem(const Topology& topo, int32_t nv) {
+  std::ostringstream err;
   for (int32_t v = 0; v < nv; ++v) {
     if (topo.fans[v].count == 0) {
       err << "vertex " << v << " belongs to no triangle";
@@ -566,88 +650,135 @@ std::string check_mesh_invariants(const Sheet& sheet, double expected_area) {
       return err.str();
     }
   }
-  if (expected_area >= 0) {
-    double area = 0;
-    for (int32_t t = 0; t < nt; ++t) {
-      const Vec2 a = V.rest[T.tri[t][0]], b = V.rest[T.tri[t][1]], c = V.rest[T.tri[t][2]];
-      area += 0.5 * ((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
-    }
-    if (std::abs(area - expected_area) > 1e-9 * std::max(1.0, expected_area) + 1e-12) {
-      err << "total pattern area " << area << " differs from " << expected_area;
-      return err.str();
-    }
+  return {};
+}
+
+std::string total_area_problem(const Vertices& V, const Triangles& T, double expected_area) {
+  const int32_t nt = T.size();
+  std::ostringstream err;
+  double area = 0;
+  for (int32_t t = 0; t < nt; ++t) {
+    const Vec2 a = V.rest[T.tri[t][0]], b = V.rest[T.tri[t][1]], c = V.rest[T.tri[t][2]];
+    area += 0.5 * ((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
   }
+  if (std::abs(area - expected_area) > 1e-9 * std::max(1.0, expected_area) + 1e-12) {
+    err << "total pattern area " << area << " differs from " << expected_area;
+    return err.str();
+  }
+  return {};
+}
+
+// The checks below compare the sheet's topology `cur` with `topo`, a full rebuild; each returns what differs.
+
+const char* fan_difference(const Topology& cur, const Topology& topo, int32_t nv) {
+  const char* what = nullptr;
+  if (cur.vertex_count() != nv) what = "vertex fans";
+  for (int32_t v = 0; !what && v < nv; ++v)
+    if (!std::ranges::equal(cur.fan(v), topo.fan(v))) what = "vertex fans";
+  if (!what) {
+    // The pool: every fan inside it and within its room, the rooms disjoint, the rest counted as unused.
+    std::vector<std::pair<int32_t, int32_t>> rooms;
+    for (const Topology::FanRoom& room : cur.fans) rooms.push_back({room.offset, room.capacity});
+    std::sort(rooms.begin(), rooms.end());
+    int64_t used = 0, end = 0;
+    for (const Topology::FanRoom& room : cur.fans)
+      if (room.count > room.capacity) what = "fan rooms";
+    for (const auto& [first, capacity] : rooms) {
+      if (first < end) what = "fan rooms";
+      end = static_cast<int64_t>(first) + capacity;
+      used += capacity;
+    }
+    if (end > static_cast<int64_t>(cur.vt_tri.size()) ||
+        used + cur.vt_unused != static_cast<int64_t>(cur.vt_tri.size()))
+      what = "fan rooms";
+  }
+  return what;
+}
+
+// The same hinges (with their orientation and opposite vertices), in any order, and each triangle edge
+// pointing at the hinge on it.
+const char* hinge_difference(const Topology& cur, const Topology& topo, const Triangles& T) {
+  const int32_t nt = T.size();
+  const char* what = nullptr;
+  auto key = [](const Hinge& h) { return std::pair(std::min(h.v[0], h.v[1]), std::max(h.v[0], h.v[1])); };
+  std::vector<Hinge> sorted = cur.hinges;
+  std::sort(sorted.begin(), sorted.end(), [&](const Hinge& p, const Hinge& q) { return key(p) < key(q); });
+  for (size_t h = 0; !what && h < topo.hinges.size(); ++h)
+    if (sorted[h].v != topo.hinges[h].v) what = "hinges";
+  if (static_cast<int32_t>(cur.edge_hinge.size()) != nt) what = "edge hinges";
+  for (int32_t t = 0; !what && t < nt; ++t)
+    for (int32_t i = 0; i < 3 && !what; ++i) {
+      const int32_t h = cur.edge_hinge[t][i];
+      const Tri& q = T.tri[t];
+      if (cur.neighbor[t][i] < 0 ? h != -1
+                                 : (h < 0 || h >= static_cast<int32_t>(cur.hinges.size()) ||
+                                    key(cur.hinges[h]) != std::pair(std::min(q[i], q[(i + 1) % 3]),
+                                                                    std::max(q[i], q[(i + 1) % 3]))))
+        what = "edge hinges";
+    }
+  return what;
+}
+
+// Rest data, lumped masses and boundary flags as a full refresh would compute them.
+const char* rest_data_difference(const Sheet& sheet, const Topology& topo) {
+  const Vertices& V = sheet.verts;
+  const Triangles& T = sheet.tris;
+  const int32_t nv = V.size(), nt = T.size();
+  const char* what = nullptr;
+  std::vector<Mat2> inv;
+  std::vector<double> area;
+  update_rest_data(V.rest, T.tri, inv, area);
+  std::vector<double> mass(nv, 0.0);
+  lump_masses(T.tri, area, sheet.material, mass);
+  std::vector<uint8_t> flags = V.flags;
+  update_boundary_flags(topo, V.rest, 0.05, flags);
+  if (area != T.rest_area) what = "rest areas";
+  for (int32_t t = 0; !what && t < nt; ++t)
+    if (inv[t] != T.rest_inv[t]) what = "rest inverses";
+  if (!what && mass != V.mass) what = "lumped masses";
+  if (!what && flags != V.flags) what = "boundary flags";
+  return what;
+}
+
+// `topo` and `piece`: a full rebuild of the sheet's triangles.
+const char* derived_data_difference(const Sheet& sheet, const Topology& topo, const std::vector<int32_t>& piece) {
+  const Triangles& T = sheet.tris;
+  const Topology& cur = sheet.topo;
+  const char* what = fan_difference(cur, topo, sheet.verts.size());
+  if (what) {
+  } else if (cur.neighbor != topo.neighbor) {
+    what = "triangle neighbours";
+  } else if (cur.boundary_next != topo.boundary_next || cur.boundary_prev != topo.boundary_prev ||
+             cur.boundary_vertices != topo.boundary_vertices) {
+    what = "boundary links";
+  } else if (cur.piece_count != topo.piece_count || T.piece != piece) {
+    what = "pieces";
+  } else if (cur.hinges.size() != topo.hinges.size()) {
+    what = "hinge count";
+  }
+  if (!what) what = hinge_difference(cur, topo, T);
+  if (!what) what = rest_data_difference(sheet, topo);
+  return what;
+}
+}  // namespace
+
+std::string check_mesh_invariants(const Sheet& sheet, double expected_area) {
+  const Vertices& V = sheet.verts;
+  const Triangles& T = sheet.tris;
+  const int32_t nv = V.size();
+  if (std::string e = array_length_problem(V, T); !e.empty()) return e;
+  if (std::string e = triangle_problem(V, T); !e.empty()) return e;
+  if (std::string e = edge_manifold_problem(T, nv); !e.empty()) return e;
+  Topology topo;
+  std::vector<int32_t> piece;
+  build_topology(T.tri, nv, topo, piece);
+  if (std::string e = fan_connectivity_problem(topo, nv); !e.empty()) return e;
+  if (expected_area >= 0)
+    if (std::string e = total_area_problem(V, T, expected_area); !e.empty()) return e;
   // Derived data kept up to date by the local refresh after a cut must equal a full rebuild, bit for bit.
-  if (sheet.topo.version == sheet.topology_version) {
-    const Topology& cur = sheet.topo;
-    const char* what = nullptr;
-    if (cur.vertex_count() != nv) what = "vertex fans";
-    for (int32_t v = 0; !what && v < nv; ++v)
-      if (!std::ranges::equal(cur.fan(v), topo.fan(v))) what = "vertex fans";
-    if (!what) {
-      // The pool: every fan inside it and within its room, the rooms disjoint, the rest counted as unused.
-      std::vector<std::pair<int32_t, int32_t>> rooms;
-      for (const Topology::FanRoom& room : cur.fans) rooms.push_back({room.offset, room.capacity});
-      std::sort(rooms.begin(), rooms.end());
-      int64_t used = 0, end = 0;
-      for (const Topology::FanRoom& room : cur.fans)
-        if (room.count > room.capacity) what = "fan rooms";
-      for (const auto& [first, capacity] : rooms) {
-        if (first < end) what = "fan rooms";
-        end = static_cast<int64_t>(first) + capacity;
-        used += capacity;
-      }
-      if (end > static_cast<int64_t>(cur.vt_tri.size()) ||
-          used + cur.vt_unused != static_cast<int64_t>(cur.vt_tri.size()))
-        what = "fan rooms";
-    }
-    if (what) {
-    } else if (cur.neighbor != topo.neighbor) {
-      what = "triangle neighbours";
-    } else if (cur.boundary_next != topo.boundary_next || cur.boundary_prev != topo.boundary_prev ||
-               cur.boundary_vertices != topo.boundary_vertices) {
-      what = "boundary links";
-    } else if (cur.piece_count != topo.piece_count || T.piece != piece) {
-      what = "pieces";
-    } else if (cur.hinges.size() != topo.hinges.size()) {
-      what = "hinge count";
-    }
-    if (!what) {
-      // The same hinges (with their orientation and opposite vertices), in any order, and each triangle edge
-      // pointing at the hinge on it.
-      auto key = [](const Hinge& h) { return std::pair(std::min(h.v[0], h.v[1]), std::max(h.v[0], h.v[1])); };
-      std::vector<Hinge> sorted = cur.hinges;
-      std::sort(sorted.begin(), sorted.end(), [&](const Hinge& p, const Hinge& q) { return key(p) < key(q); });
-      for (size_t h = 0; !what && h < topo.hinges.size(); ++h)
-        if (sorted[h].v != topo.hinges[h].v) what = "hinges";
-      if (static_cast<int32_t>(cur.edge_hinge.size()) != nt) what = "edge hinges";
-      for (int32_t t = 0; !what && t < nt; ++t)
-        for (int32_t i = 0; i < 3 && !what; ++i) {
-          const int32_t h = cur.edge_hinge[t][i];
-          const Tri& q = T.tri[t];
-          if (cur.neighbor[t][i] < 0 ? h != -1
-                                     : (h < 0 || h >= static_cast<int32_t>(cur.hinges.size()) ||
-                                        key(cur.hinges[h]) != std::pair(std::min(q[i], q[(i + 1) % 3]),
-                                                                        std::max(q[i], q[(i + 1) % 3]))))
-            what = "edge hinges";
-        }
-    }
-    if (!what) {
-      std::vector<Mat2> inv;
-      std::vector<double> area;
-      update_rest_data(V.rest, T.tri, inv, area);
-      std::vector<double> mass(nv, 0.0);
-      lump_masses(T.tri, area, sheet.material, mass);
-      std::vector<uint8_t> flags = V.flags;
-      update_boundary_flags(topo, V.rest, 0.05, flags);
-      if (area != T.rest_area) what = "rest areas";
-      for (int32_t t = 0; !what && t < nt; ++t)
-        if (inv[t] != T.rest_inv[t]) what = "rest inverses";
-      if (!what && mass != V.mass) what = "lumped masses";
-      if (!what && flags != V.flags) what = "boundary flags";
-    }
-    if (what) return std::string("the topology's ") + what + " differ from a full rebuild";
-  }
+  if (sheet.topo.version == sheet.topology_version)
+    if (const char* what = derived_data_difference(sheet, topo, piece))
+      return std::string("the topology's ") + what + " differ from a full rebuild";
   return {};
 }
 
