@@ -617,8 +617,6 @@ void validate_obstacles(const Scenario& s, const std::vector<Vec2>& outline) {
   if (s.obstacles.size() > static_cast<size_t>(kMaxObstacles))
     fail(file, "obstacles", "absurd size: " + std::to_string(s.obstacles.size()) + " obstacles (at most " +
                                 std::to_string(kMaxObstacles) + ")");
-  if (!s.obstacles.empty() && s.sim.solver != "implicit")
-    fail(file, "obstacles", "obstacles need the implicit solver; sim.solver is \"" + s.sim.solver + "\"");
   for (size_t i = 0; i < s.obstacles.size(); ++i) {
     const Obstacle& o = s.obstacles[i];
     const std::string p = child("obstacles", i);

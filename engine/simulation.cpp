@@ -132,6 +132,7 @@ struct Simulation::Impl {
   std::string stop_reason;  // set when a vertex left ±kMaxSheetPosition: no further frames run
   std::vector<Vec3> targets_begin;  // finger targets at the start of the frame
   int32_t resume_substep = -1;     // the substep a frame stopped for tearing resumes at (stops_for_tearing)
+  bool last_substep_rerun = false; // the frame's last substep stopped once and runs again to its end
   double physics_alpha = 1.0;      // how far through the frame's finger motion the physics is (1 unless stopped)
   std::vector<Vec3> hold_points;  // per finger: scratch of the pinches and the re-grip after a cut
   // A slipping pinch pulls like this spring, its force capped at the grip: the grip within ~2 mm.
@@ -319,15 +320,17 @@ struct Simulation::Impl {
       substep(static_cast<double>(s) / n, Reactions::Read);
       // The substep left the reactions of the state it started from; the stop reads the state it reached,
       // else a start is cut one substep late, on a strip whose pull has grown meanwhile. The frame's last
-      // substep stops too (its remaining substeps are none), else a start due in it was read at its end.
-      // A finger past its grip slips at the frame's last substep, when no cut is due there.
+      // substep stops too, else a start due in it was read at its end; it is then run once more from the
+      // state the tearing step left, so the frame still ends with the fingers at their targets. A finger
+      // past its grip slips at the frame's last substep, when no cut is due there.
       const bool due = stop_due();
-      if (!due || (s == n && !tear_due_now())) {
+      if (!due || (s == n && (last_substep_rerun || !tear_due_now()))) {
         if (s == n) check_grip(sheet.verts, scenario.sim.gravity, sheet.fingers);
         else read_reactions(sheet.verts, scenario.sim.gravity, sheet.fingers);
         continue;
       }
-      resume_substep = s + 1;
+      last_substep_rerun = s == n;
+      resume_substep = s == n ? n : s + 1;
       physics_alpha = refine_stop(static_cast<double>(s - 1) / n, static_cast<double>(s) / n);
       read_reactions(sheet.verts, scenario.sim.gravity, sheet.fingers);
       return true;
@@ -403,6 +406,7 @@ struct Simulation::Impl {
 
   void run_physics() {
     ScopedTimer timer(profile.integrate);
+    last_substep_rerun = false;
     run_substeps_from(1);
   }
 

@@ -249,8 +249,6 @@ TEST(ContactValidation, EachBadValueIsOneLineWithItsPath) {
   expect_refused(R"([{"type": "box", "max": [1, 1, 1]}])", "obstacles[0]", "missing min");
   expect_refused(R"([{"type": "box", "min": [0, 0, -1], "max": [1, 1, -0.5], "normal": [0, 0, 1]}])",
                  "obstacles[0].normal", "unknown key");
-  expect_refused(R"([{"type": "plane", "point": [0, 0, -1], "normal": [0, 0, 1]}])", "obstacles",
-                 "implicit solver", R"({"solver": "projective"})");
 }
 
 TEST(ContactValidation, ASheetThatStartsInsideAnObstacleIsRefused) {

@@ -147,19 +147,24 @@ TEST(Simulation, FrameRunsItsSystemsInTheGraphsOrder) {
 }
 
 // "substep": every cut is followed by one more substep of the whole sheet, and the frame's other
-// candidates are treated after it.
+// candidates are treated after it. A frame whose last substep stopped for a cut runs that substep once
+// more to the frame's end (docs/tearing.md "Quasi-static tearing"): at most one more, and only with a cut.
 TEST(Simulation, SubstepRelaxationRunsOneWholeSheetSubstepPerCut) {
   const Scenario s = fig14("substep");
   Simulation sim(s, one_thread());
   int frames_with_cuts = 0;
   for (int32_t f = 0; f < s.sim.frames; ++f) {
     const int32_t cuts = sim.remesh_count();
+    const int64_t before = sheet_substeps(sim);
     sim.step();
-    if (sim.remesh_count() > cuts) {
+    const int32_t made = sim.remesh_count() - cuts;
+    if (made > 0) {
       ++frames_with_cuts;
       EXPECT_GT(sim.last_profile().relaxation, 0.0) << "frame " << f;
     }
-    EXPECT_EQ(sheet_substeps(sim), int64_t{f + 1} * s.sim.substeps + sim.remesh_count()) << "frame " << f;
+    const int64_t extra = sheet_substeps(sim) - before - s.sim.substeps - made;
+    EXPECT_GE(extra, 0) << "frame " << f;
+    EXPECT_LE(extra, made > 0 ? 1 : 0) << "frame " << f;
   }
   EXPECT_GT(frames_with_cuts, 3);
 }
@@ -182,20 +187,24 @@ TEST(Simulation, NextFrameRelaxationCutsAtMostOncePerFrameWithoutAnExtraSubstep)
 }
 
 // "patch": after each cut a substep relaxes only the patch around the tear (its own small system), so
-// the whole sheet's solver takes the frames' substeps and nothing more, while each frame with a cut
-// spends time relaxing.
+// the whole sheet's solver takes the frames' substeps (and the rerun of a last substep that stopped for
+// a cut) and nothing more, while each frame with a cut spends time relaxing.
 TEST(Simulation, PatchRelaxationLeavesTheWholeSheetsSolverToTheFrames) {
   const Scenario s = fig14("patch");
   Simulation sim(s, one_thread());
   int frames_with_cuts = 0;
   for (int32_t f = 0; f < s.sim.frames; ++f) {
     const int32_t cuts = sim.remesh_count();
+    const int64_t before = sheet_substeps(sim);
     sim.step();
-    if (sim.remesh_count() > cuts) {
+    const bool cut = sim.remesh_count() > cuts;
+    if (cut) {
       ++frames_with_cuts;
       EXPECT_GT(sim.last_profile().relaxation, 0.0) << "frame " << f;
     }
-    EXPECT_EQ(sheet_substeps(sim), int64_t{f + 1} * s.sim.substeps) << "frame " << f;
+    const int64_t extra = sheet_substeps(sim) - before - s.sim.substeps;
+    EXPECT_GE(extra, 0) << "frame " << f;
+    EXPECT_LE(extra, cut ? 1 : 0) << "frame " << f;
   }
   EXPECT_GE(frames_with_cuts, 2);
   EXPECT_GT(sim.remesh_count(), 3);
