@@ -771,10 +771,8 @@ void solve_block_ldlt(const BlockLdlt& f, const double* b, double* x, const Rang
       z.segment<3>(3 * i) = c.c_inverse[i].transpose() * zi;
     }
   } else {
-    // Per panel through the dense kernels (dense_kernels.hpp): the baseline build is the Eigen code this
-    // was; the AVX2 one took a solve at 10 000 triangles from 5.8–6.5 ms to 3.7–3.9 ms (one core,
-    // 2026-11-22), which reads the 24 MB of panels twice at ~12.6 GB/s: the memory's pace, not the
-    // arithmetic's. So the subtree tasks of the factorisation solve in parallel too, in a way that keeps
+    // Per panel through the dense kernels (dense_kernels.hpp). A solve reads the panels twice and runs at
+    // the memory's pace, not the arithmetic's (bench/results/2026-11-22-8-notes.txt). So the subtree tasks of the factorisation solve in parallel too, in a way that keeps
     // every entry's sequence of operations of the serial solve:
     // - forward (supernodes in increasing order): a task's supernode updates rows of its own subtree at
     //   once (only that task's supernodes touch them, in the serial order) and leaves its product for the

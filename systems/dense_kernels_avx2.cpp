@@ -31,8 +31,8 @@ inline __m256i first_lanes(int32_t r) {
 // partial when MASKED. RV·NC accumulators, one fused multiply-add chain per entry over q = 0, 1, … k−1.
 // k ≥ 1 (the callers handle k = 0). Said to the compiler, and the tile inlined into its row loop: otherwise
 // GCC 12 keeps a stack copy of the accumulators for the case of no iteration and stores all twelve to it
-// in every iteration (measured 2026-11-22: 22 GFlop/s per core instead of 45–48 on 96 × 96 × 96 products;
-// the loop runs at the store port's pace, not the fused multiply-adds').
+// in every iteration, and the loop runs at the store port's pace, not the fused multiply-adds' (half the
+// speed).
 template <int RV, int NC, bool MASKED>
 __attribute__((always_inline)) inline void tile(int32_t i, int32_t j, int32_t k, const double* a, int64_t lda,
                                                 const double* b, int64_t ldb, double* c, int64_t ldc, __m256i mask) {
@@ -122,8 +122,8 @@ void syrk_lower_fma(int32_t n, int32_t k, const double* a, int64_t lda, double* 
 // at b and take the terms of the columns solved before it (q < j0) as a product tile does (RV loads and NC
 // broadcasts per RV·NC fused multiply-adds), then the terms inside the block in order, each column divided
 // as soon as its sum is complete: every entry is the same chain as solved column by column, so the result
-// does not depend on the row blocking (measured 2026-11-22: column by column the loop waited on one
-// dependent chain per row vector and on a load per fused multiply-add).
+// does not depend on the row blocking (column by column, the loop waits on one dependent chain per row
+// vector and on a load per fused multiply-add).
 template <int RV, int NC, bool MASKED>
 __attribute__((always_inline)) inline void solve_tile(int32_t i, int32_t j0, const double* l, int64_t ldl, double* b,
                                                       int64_t ldb, __m256i mask) {

@@ -6,10 +6,9 @@
 // registers): every entry is one chain of fused multiply-adds over the inner index in increasing order,
 // starting from zero, whatever its row, tile or chunk (the last rows of a column go through a masked
 // vector), so each entry has the AVX2 build's bits exactly and a factor is the same on both builds
-// (tests/dense_kernels_test checks it entry for entry). Measured 2026-11-23 on this project's Intel Xeon
-// host, one core (bench/results/2026-11-23-11-notes.txt): 70–80 GFlop/s on the factorisation's shapes against
-// the AVX2 kernels' 42–54. It needs the compiler to unroll the tiles' loops (-O3 for this file): at -O2 GCC 12
-// kept the accumulators on the stack and the same tiles ran at 27–31 GFlop/s.
+// (tests/dense_kernels_test checks it entry for entry); it is the faster build on the factorisation's
+// shapes (bench/results/2026-11-23-11-notes.txt). It needs the compiler to unroll the tiles' loops (-O3 for
+// this file): at -O2 GCC 12 keeps the accumulators on the stack, and the tiles run slower than AVX2's.
 #include "systems/dense_kernels.hpp"
 
 #include <immintrin.h>

@@ -154,7 +154,7 @@ class BatchMpiRanks : public ::testing::Test {
     if (ranks > 0) {
       // Open MPI keeps allocations of its components until exit and unloads them, so LeakSanitizer reports
       // frames it cannot name (and no suppression can): in the ASan build the ranks run without leak
-      // checking, address and UB checks on (measured 2026-12-02, Open MPI 4.1.4).
+      // checking, address and UB checks on (Open MPI 4.1).
       if (kAsan) cmd += "ASAN_OPTIONS=\"${ASAN_OPTIONS:-}:detect_leaks=0\" ";
       // -q: no banner of mpirun's own when a rank exits with status 2, so stderr is papertear's line.
       cmd += "timeout 120 " + quote(PT_MPIEXEC) + " --allow-run-as-root --oversubscribe -q -np " + std::to_string(ranks) + " ";

@@ -62,10 +62,9 @@ TEST(ImplicitIntegrator, HangingSheetSettlesWithSmallStrainAndCarriesItsWeight) 
   for (const Vec3& x : s.verts.x) lowest = std::min(lowest, x.z());
   EXPECT_LT(lowest, -0.1) << "the free corners hang down";
   // Momentum balance: the internal forces (as the engine's force system computes them after the
-  // physics) on the held vertices carry the weight of the whole sheet once it is at rest. (Before the
-  // stress-dependent spin stiffness, the in-plane stiffness penalised every in-plane spin of a triangle
-  // by 4μ; the sheet lands curled and its isometric unfolding, which spins triangles, crept as if in
-  // honey (viscous force h·K·v): 67% of the weight at 5 s, 82% at 10 s. Measured now: 100.0% at 5 s.)
+  // physics) on the held vertices carry the weight of the whole sheet once it is at rest. A stiffness that
+  // penalised every in-plane spin would let the curled sheet's isometric unfolding creep as if in honey,
+  // the viscous force h·K·v carrying part of the weight.
   double weight = 0;
   for (double m : s.verts.mass) weight += m * 9.81;
   std::vector<BendingStencil> stencils;

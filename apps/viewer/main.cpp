@@ -83,8 +83,8 @@ struct Options {
   int frames = -1;
   std::string screenshot;
   // Simulation threads. One: the simulation steps on one core while the frame is drawn on the other
-  // (llvmpipe rasterises on the CPU). Measured at ~1 070 triangles with --realtime: 44-56 frames/s with
-  // one, 34-38 with two (the step's two threads and llvmpipe's then fight over both cores).
+  // (llvmpipe rasterises on the CPU); with two, the step's threads and llvmpipe's fight over both cores
+  // and fewer frames are drawn.
   int threads = 1;
   int width = 1280, height = 800;
   int samples = 0;  // MSAA samples (llvmpipe: 4× costs several times the fill time)
