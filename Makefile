@@ -4,7 +4,7 @@ JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 SAN_JOBS ?= 2
 
-.PHONY: deps configure build demo test bench bench-batch clean check-sanitize fuzz soak
+.PHONY: deps configure build demo test bench bench-batch clean check-sanitize check-shared fuzz soak
 
 deps:
 	@bash scripts/install-deps.sh
@@ -29,6 +29,11 @@ bench: build
 # bench/results/<date>-batch-scaling.txt.
 bench-batch: build
 	@python3 scripts/batch-scaling.py --bin $(BUILD)/bin/papertear --out bench/results/$(shell date +%Y-%m-%d)-batch-scaling.txt
+
+# The embedding example against a BUILD_SHARED_LIBS=ON build of the library, installed in the build tree
+# (the static one is `make test`'s embedding_consumer); it compiles the library once more, ~8-11 min.
+check-shared: build
+	@cmake --build $(BUILD) --target check_shared_package
 
 # Reliability (issue 9). Each uses its own build directory (build-asan, build-tsan, build-fuzz, build-soak).
 # ASan+UBSan over the whole suite, then TSan over the threaded tests.
