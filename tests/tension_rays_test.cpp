@@ -76,6 +76,21 @@ double angle_at(const Vec2& P, const Vec2& A, const Vec2& B) {
 Sheet one_slit() { return slit_grid(kW, kH, 20, 15, {Slit{10, 6}}); }
 const Vec2 kSlitTip(0.1, 0.06);
 
+// The sheet the mesher makes of `outline` with a vertex at each required point.
+Sheet meshed(const std::vector<Vec2>& outline, const std::vector<Vec2>& required, int32_t triangles) {
+  MeshRequest req;
+  req.outline = outline;
+  req.required_points = required;
+  req.target_triangles = triangles;
+  Sheet s;
+  std::vector<int32_t> held;
+  mesh_outline(req, s.verts.rest, s.tris.tri, held);
+  s.verts.resize(static_cast<int32_t>(s.verts.rest.size()));
+  s.tris.resize(static_cast<int32_t>(s.tris.tri.size()));
+  refresh_after_topology_change(s);
+  return s;
+}
+
 }  // namespace
 
 // O'Keefe: on an unslit sheet t is along the hyperbola's tangent at p and θ the angle APB. At p on the
@@ -167,16 +182,7 @@ TEST(TensionRays, PathBendsAroundANotchCorner) {
                                   {0.2, 0},   {0.2, 0.15}, {0.07, 0.15}, {0.06, 0.08}, {0.05, 0.15},
                                   {0, 0.15}};
   const Vec2 P(0.06, 0.08), C(0.12, 0.10), A(0.02, 0.03), B(0.17, 0.03);
-  MeshRequest req;
-  req.outline = outline;
-  req.required_points = {A, B};
-  req.target_triangles = 300;
-  Sheet s;
-  std::vector<int32_t> held;
-  mesh_outline(req, s.verts.rest, s.tris.tri, held);
-  s.verts.resize(static_cast<int32_t>(s.verts.rest.size()));
-  s.tris.resize(static_cast<int32_t>(s.tris.tri.size()));
-  refresh_after_topology_change(s);
+  const Sheet s = meshed(outline, {A, B}, 300);
   const TensionRays r = rays_at(s, vertex_at(s, P), {{A, 1.0}, {B, 1.0}});
   ASSERT_EQ(r.rays.size(), 2u);
   EXPECT_TRUE(r.rays[0].straight);
@@ -197,17 +203,8 @@ TEST(TensionRays, PathBendsAroundANotchCorner) {
 TEST(TensionRays, ABluntSlitEndDoesNotSteerTheTear) {
   auto trouser = [](double width) {
     const double l = 0.02 - 0.5 * width, r = 0.02 + 0.5 * width;
-    MeshRequest req;
-    req.outline = {{0, 0}, {0.04, 0}, {0.04, 0.12}, {r, 0.12}, {r, 0.06}, {l, 0.06}, {l, 0.12}, {0, 0.12}};
-    req.required_points = {{0.01, 0.115}, {0.03, 0.115}};
-    req.target_triangles = 300;
-    Sheet s;
-    std::vector<int32_t> held;
-    mesh_outline(req, s.verts.rest, s.tris.tri, held);
-    s.verts.resize(static_cast<int32_t>(s.verts.rest.size()));
-    s.tris.resize(static_cast<int32_t>(s.tris.tri.size()));
-    refresh_after_topology_change(s);
-    return s;
+    return meshed({{0, 0}, {0.04, 0}, {0.04, 0.12}, {r, 0.12}, {r, 0.06}, {l, 0.06}, {l, 0.12}, {0, 0.12}},
+                  {{0.01, 0.115}, {0.03, 0.115}}, 300);
   };
   const Vec2 A(0.01, 0.115), B(0.03, 0.115);
   {
