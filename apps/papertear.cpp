@@ -9,6 +9,7 @@
 // on stderr; never a crash). SIGINT or SIGTERM during run removes its partial output, then ends the process
 // by that signal.
 #include "engine/batch.hpp"
+#include "engine/one_line_error.hpp"
 #include "engine/batch_mpi.hpp"
 #include "engine/version.hpp"
 #include "engine/result_writer.hpp"
@@ -86,13 +87,7 @@ void throw_if_interrupted(int32_t frame) {
                     sig);
 }
 
-// Scripts read stderr line by line: every diagnostic is exactly one line.
-void report_error(const std::string& message) {
-  std::string line = "papertear: ";
-  for (const char c : message) line += (c == '\n' || c == '\r') ? ' ' : c;
-  std::fprintf(stderr, "%s\n", line.c_str());
-  std::fflush(stderr);
-}
+void report_error(const std::string& message) { pt::print_one_line_error("papertear", message); }
 
 void print_error(const std::string& message) {
   if (!g_quiet) report_error(message);

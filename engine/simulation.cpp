@@ -324,7 +324,9 @@ struct Simulation::Impl {
       // state the tearing step left, so the frame still ends with the fingers at their targets. A finger
       // past its grip slips at the frame's last substep, when no cut is due there.
       const bool due = stop_due();
-      if (!due || (s == n && (last_substep_rerun || !tear_due_now()))) {
+      // Due without a finger past its grip means a cut is due: the rays are asked again only otherwise.
+      const bool tear_due = due && (!grip_exceeded(sheet.fingers) || tear_due_now());
+      if (!due || (s == n && (last_substep_rerun || !tear_due))) {
         if (s == n) check_grip(sheet.verts, scenario.sim.gravity, sheet.fingers);
         else read_reactions(sheet.verts, scenario.sim.gravity, sheet.fingers);
         continue;

@@ -782,4 +782,19 @@ std::string check_mesh_invariants(const Sheet& sheet, double expected_area) {
   return {};
 }
 
+std::string first_non_finite(const Sheet& s) {
+  for (int32_t v = 0; v < s.verts.size(); ++v)
+    if (!s.verts.x[v].allFinite() || !s.verts.v[v].allFinite() || !s.verts.rest[v].allFinite())
+      return "vertex " + std::to_string(v);
+  for (const Finger& f : s.fingers)
+    if (!f.target.allFinite() || !f.reaction.allFinite()) return "finger " + f.name;
+  for (const Tear& t : s.tears) {
+    for (const Vec2& p : t.tips)
+      if (!p.allFinite()) return "tear tip";
+    for (const Vec2& p : t.detail)
+      if (!p.allFinite()) return "tear detail";
+  }
+  return "";
+}
+
 }  // namespace pt

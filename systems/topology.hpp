@@ -63,6 +63,10 @@ void compact_fans(Topology& topo);
 // else a description of the first violation. `expected_area` < 0 skips the area check.
 std::string check_mesh_invariants(const Sheet& sheet, double expected_area = -1);
 
+// "" when every position, velocity, rest point, finger target and reaction, tear tip and detail point is
+// finite, else what the first one that is not belongs to ("vertex 12", "finger A", "tear tip").
+std::string first_non_finite(const Sheet& sheet);
+
 double total_rest_area(const Triangles& tris);
 
 }  // namespace pt

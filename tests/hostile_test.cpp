@@ -49,23 +49,8 @@ std::string scene(const std::string& name, const std::string& fingers, int frame
 }
 
 bool all_finite(const Sheet& s, std::string& where) {
-  for (int32_t v = 0; v < s.verts.size(); ++v)
-    if (!s.verts.x[v].allFinite() || !s.verts.v[v].allFinite() || !s.verts.rest[v].allFinite()) {
-      where = "vertex " + std::to_string(v);
-      return false;
-    }
-  for (const Finger& f : s.fingers)
-    if (!f.target.allFinite() || !f.reaction.allFinite()) {
-      where = "finger " + f.name;
-      return false;
-    }
-  for (const Tear& t : s.tears) {
-    for (const Vec2& p : t.tips)
-      if (!p.allFinite()) return where = "tear tip", false;
-    for (const Vec2& p : t.detail)
-      if (!p.allFinite()) return where = "tear detail", false;
-  }
-  return true;
+  where = first_non_finite(s);
+  return where.empty();
 }
 
 struct Outcome {

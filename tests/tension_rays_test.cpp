@@ -76,19 +76,24 @@ double angle_at(const Vec2& P, const Vec2& A, const Vec2& B) {
 Sheet one_slit() { return slit_grid(kW, kH, 20, 15, {Slit{10, 6}}); }
 const Vec2 kSlitTip(0.1, 0.06);
 
-// The sheet the mesher makes of `outline` with a vertex at each required point.
-Sheet meshed(const std::vector<Vec2>& outline, const std::vector<Vec2>& required, int32_t triangles) {
-  MeshRequest req;
-  req.outline = outline;
-  req.required_points = required;
-  req.target_triangles = triangles;
+// The sheet the mesher makes of `req`; `held` gets the vertex of each required point.
+Sheet meshed(const MeshRequest& req, std::vector<int32_t>& held) {
   Sheet s;
-  std::vector<int32_t> held;
   mesh_outline(req, s.verts.rest, s.tris.tri, held);
   s.verts.resize(static_cast<int32_t>(s.verts.rest.size()));
   s.tris.resize(static_cast<int32_t>(s.tris.tri.size()));
   refresh_after_topology_change(s);
   return s;
+}
+
+// The same for `outline` with a vertex at each required point.
+Sheet meshed(const std::vector<Vec2>& outline, const std::vector<Vec2>& required, int32_t triangles) {
+  MeshRequest req;
+  req.outline = outline;
+  req.required_points = required;
+  req.target_triangles = triangles;
+  std::vector<int32_t> held;
+  return meshed(req, held);
 }
 
 }  // namespace
@@ -377,12 +382,8 @@ TEST(TensionRays, SameOutlineOnDifferentMeshesGivesTheSameDirection) {
       req.target_triangles = 300;
       req.seed = seed;
       req.rotation_deg = rotation;
-      Sheet s;
       std::vector<int32_t> held;
-      mesh_outline(req, s.verts.rest, s.tris.tri, held);
-      s.verts.resize(static_cast<int32_t>(s.verts.rest.size()));
-      s.tris.resize(static_cast<int32_t>(s.tris.tri.size()));
-      refresh_after_topology_change(s);
+      const Sheet s = meshed(req, held);
       std::vector<LoadPoint> loads;
       for (int k : c.use) loads.push_back(LoadPoint{held[k], Vec3(force[k], 0, 0)});
       TensionRaysScratch scratch;

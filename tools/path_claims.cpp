@@ -6,6 +6,7 @@
 // every path is chaotic in the mesh and in the last bit of the physics. No pass or fail; 16 meshes take
 // ~8 minutes on one core.
 //   build/bin/papertear-path-claims [--meshes 16] [--triangles N] [--relaxation substep|next_frame|patch]
+#include "engine/one_line_error.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "engine/simulation_internals.hpp"
@@ -147,11 +148,7 @@ void measure_direction(const ClaimsOptions& options, const char* direction) {
   std::fflush(stdout);
 }
 
-void print_error(const std::string& message) {
-  std::string line = "papertear-path-claims: ";
-  for (const char c : message) line += (c == '\n' || c == '\r') ? ' ' : c;
-  std::fprintf(stderr, "%s\n", line.c_str());
-}
+void print_error(const std::string& message) { print_one_line_error("papertear-path-claims", message); }
 
 }  // namespace
 

@@ -5,9 +5,11 @@
 // time per triangle, so a leak or a cost that grows with the run shows. Exit status 0 when the run stayed
 // finite and valid, 1 when it did not, 2 for bad options or a bad scenario.
 //   build/bin/papertear-soak [--scenario FILE] [--frames N] [--threads N] [--report FILE]
+#include "engine/one_line_error.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "systems/meshing.hpp"
+#include "systems/topology.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -55,23 +57,8 @@ long peak_rss_kb() {
 
 // Whether every position, velocity, finger and tear point is finite; `where` names the first that is not.
 bool all_finite(const Sheet& s, std::string& where) {
-  for (int32_t v = 0; v < s.verts.size(); ++v)
-    if (!s.verts.x[v].allFinite() || !s.verts.v[v].allFinite() || !s.verts.rest[v].allFinite()) {
-      where = "vertex " + std::to_string(v);
-      return false;
-    }
-  for (const Finger& f : s.fingers)
-    if (!f.target.allFinite() || !f.reaction.allFinite()) {
-      where = "finger " + f.name;
-      return false;
-    }
-  for (const Tear& t : s.tears) {
-    for (const Vec2& p : t.tips)
-      if (!p.allFinite()) return where = "tear tip", false;
-    for (const Vec2& p : t.detail)
-      if (!p.allFinite()) return where = "tear detail", false;
-  }
-  return true;
+  where = first_non_finite(s);
+  return where.empty();
 }
 
 // Runs the soak; returns the exit status (0: finite and valid throughout, 1: not).
@@ -138,11 +125,7 @@ int soak(const SoakOptions& options) {
   return finite && nan_frames == 0 && sim.invariant_violations().empty() ? 0 : 1;
 }
 
-void print_error(const std::string& message) {
-  std::string line = "papertear-soak: ";
-  for (const char c : message) line += (c == '\n' || c == '\r') ? ' ' : c;
-  std::fprintf(stderr, "%s\n", line.c_str());
-}
+void print_error(const std::string& message) { print_one_line_error("papertear-soak", message); }
 
 }  // namespace
 
