@@ -356,6 +356,40 @@ TEST(TearingStep, BudgetBoundsPropagationsPerFrame) {
   }
 }
 
+// Quasi-static tearing judges starts only at the state the physics stopped at: of eight loaded top-edge
+// points one starts a tear, and the others wait for the next stop, whose forces are not a relaxation
+// substep's. The same candidates without quasi-static tearing all start (the budget test above).
+TEST(TearingStep, QuasiStaticStepStartsOneTearPerStop) {
+  Sheet s = notched_sheet();
+  std::vector<Candidate> candidates;
+  auto list_top_edge = [&] {
+    candidates.clear();
+    for (int32_t v : s.topo.boundary_vertices) {
+      const Vec2& r = s.verts.rest[v];
+      if (r.y() > kSize - 1e-12 && r.x() > 1e-12 && r.x() < kSize - 1e-12) {
+        candidates.push_back(candidate(v, StartKind::Finger));
+        load_opening(v, 1.0, s);
+      }
+    }
+  };
+  list_top_edge();
+  ASSERT_GE(candidates.size(), 6u);
+  CountingHooks counting;
+  counting.list = list_top_edge;
+  TearingParams params = step_params(0.03);
+  params.quasi_static = true;
+  TearingLog log;
+  TearingTimes times;
+  TearingScratch scratch;
+  run_tearing_step(params, counting.hooks(s), candidates, 0, s, log, times, scratch);
+  EXPECT_EQ(s.tears.size(), 1u);
+  EXPECT_EQ(log.remeshes, 1);
+  // The next stop starts the next one.
+  list_top_edge();
+  run_tearing_step(params, counting.hooks(s), candidates, 1, s, log, times, scratch);
+  EXPECT_EQ(s.tears.size(), 2u);
+}
+
 // With the next frame's physics as the relaxation the step ends after its first propagation: the forces
 // and candidates are brought to the new mesh, and relax is not called.
 TEST(TearingStep, NextFrameRelaxationStopsAfterOnePropagation) {

@@ -213,6 +213,11 @@ void run_tearing_step(const TearingParams& params, const TearingHooks& hooks, co
     if (!visited.insert({uv.x(), uv.y()}).second) continue;
     if (c.tear >= 0 && !params.quasi_static && extended.count(c.tear)) continue;
     if (start_shielded(params, c, sheet)) continue;
+    // Quasi-static tearing judges a start only at the state the physics stopped at: after a cut the forces
+    // are the relaxation substep's, whose lips are still springing open, and a start read there is a
+    // transient's (fig18-crumple started a fourth tear so). Tips go on advancing; starts wait for the next
+    // stop, after the sheet has moved on from the cut.
+    if (c.tear < 0 && params.quasi_static && propagations > 0) continue;
 
     const int32_t tear_id = propagate_candidate(params, c, frame, sheet, log, times, scratch);
     if (tear_id < 0) continue;
