@@ -88,6 +88,19 @@ struct CountingHooks {
   }
 };
 
+// The top edge's vertices but its corners as finger starts, each loaded with a mode I opening: the
+// candidates of the budget and start tests, listed again after every cut (ids change).
+void list_loaded_top_edge(Sheet& s, std::vector<Candidate>& candidates) {
+  candidates.clear();
+  for (int32_t v : s.topo.boundary_vertices) {
+    const Vec2& r = s.verts.rest[v];
+    if (r.y() > kSize - 1e-12 && r.x() > 1e-12 && r.x() < kSize - 1e-12) {
+      candidates.push_back(candidate(v, StartKind::Finger));
+      load_opening(v, 1.0, s);
+    }
+  }
+}
+
 }  // namespace
 
 TEST(TearingStep, DirectionNames) {
@@ -325,16 +338,7 @@ TEST(TearingStep, BudgetBoundsPropagationsPerFrame) {
     Sheet s = notched_sheet();
     const double area = total_rest_area(s.tris);
     std::vector<Candidate> candidates;
-    auto list_top_edge = [&] {
-      candidates.clear();
-      for (int32_t v : s.topo.boundary_vertices) {
-        const Vec2& r = s.verts.rest[v];
-        if (r.y() > kSize - 1e-12 && r.x() > 1e-12 && r.x() < kSize - 1e-12) {
-          candidates.push_back(candidate(v, StartKind::Finger));
-          load_opening(v, 1.0, s);
-        }
-      }
-    };
+    auto list_top_edge = [&] { list_loaded_top_edge(s, candidates); };
     list_top_edge();
     ASSERT_GE(candidates.size(), 6u);
     CountingHooks counting;
@@ -362,16 +366,7 @@ TEST(TearingStep, BudgetBoundsPropagationsPerFrame) {
 TEST(TearingStep, QuasiStaticStepStartsOneTearPerStop) {
   Sheet s = notched_sheet();
   std::vector<Candidate> candidates;
-  auto list_top_edge = [&] {
-    candidates.clear();
-    for (int32_t v : s.topo.boundary_vertices) {
-      const Vec2& r = s.verts.rest[v];
-      if (r.y() > kSize - 1e-12 && r.x() > 1e-12 && r.x() < kSize - 1e-12) {
-        candidates.push_back(candidate(v, StartKind::Finger));
-        load_opening(v, 1.0, s);
-      }
-    }
-  };
+  auto list_top_edge = [&] { list_loaded_top_edge(s, candidates); };
   list_top_edge();
   ASSERT_GE(candidates.size(), 6u);
   CountingHooks counting;
@@ -395,14 +390,7 @@ TEST(TearingStep, QuasiStaticStepStartsOneTearPerStop) {
 TEST(TearingStep, NextFrameRelaxationStopsAfterOnePropagation) {
   Sheet s = notched_sheet();
   std::vector<Candidate> candidates;
-  auto list_top_edge = [&] {
-    candidates.clear();
-    for (int32_t v : s.topo.boundary_vertices)
-      if (s.verts.rest[v].y() > kSize - 1e-12 && s.verts.rest[v].x() > 1e-12 && s.verts.rest[v].x() < kSize - 1e-12) {
-        candidates.push_back(candidate(v, StartKind::Finger));
-        load_opening(v, 1.0, s);
-      }
-  };
+  auto list_top_edge = [&] { list_loaded_top_edge(s, candidates); };
   list_top_edge();
   CountingHooks counting;
   counting.list = list_top_edge;
