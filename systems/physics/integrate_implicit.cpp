@@ -133,35 +133,24 @@ size_t implicit_solver_bytes(const ImplicitSolver& s) {
 
 namespace {
 
-void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vector<int32_t> held_sorted,
-                     ImplicitSolver& s) {
-  const Vertices& V = sheet.verts;
-  const Triangles& T = sheet.tris;
-  const int32_t nv = V.size(), nt = T.size();
-  s.version = sheet.topology_version;
-  s.held = std::move(held_sorted);
-  s.dt = params.dt;
-  s.material = key_of(sheet.material);
-  s.alpha = params.mass_damping;
-  s.beta = params.stiffness_damping;
-
+// The free vertices' numbering: held vertices get −1, the others 0, 1, … in vertex order.
+void number_free_vertices(int32_t nv, ImplicitSolver& s) {
   s.free_index.assign(nv, 0);
   for (int32_t v : s.held) s.free_index[v] = -1;
   s.free_count = 0;
   for (int32_t v = 0; v < nv; ++v)
     if (s.free_index[v] >= 0) s.free_index[v] = s.free_count++;
+}
 
-  build_bending_stencils(V.rest, sheet.topo.hinges, bending_stiffness(sheet.material), s.stencils);
-
-  // Non-zero blocks: every pair of free vertices that share a triangle or a hinge. Bucketed by row, each
-  // row's repeats dropped with a stamp per column, then the (short) unique row sorted: the keys come out
-  // sorted by (I, J) without a global sort. Every pair keeps the key it landed in (pair_key), so the
-  // triangles' and stencils' blocks are known without a search: pair q is corner pair (a, b) of triangle t
-  // at 9t + 3a + b, of stencil k at 9 nt + 16k + 4a + b, vertex v's diagonal at 9 nt + 16 ns + v (row −1
-  // when a vertex is held). A binary search per pair took a third of this function's time,
-  // its branches mispredicted.
-  const int32_t ns = static_cast<int32_t>(s.stencils.size());
-  const int32_t stencil_pairs = 9 * nt, vertex_pairs = stencil_pairs + 16 * ns;
+// Non-zero blocks: every pair of free vertices that share a triangle or a hinge. Bucketed by row, each
+// row's repeats dropped with a stamp per column, then the (short) unique row sorted: the keys come out
+// sorted by (I, J) without a global sort. Every pair keeps the key it landed in (pair_key), so the
+// triangles' and stencils' blocks are known without a search: pair q is corner pair (a, b) of triangle t
+// at 9t + 3a + b, of stencil k at 9 nt + 16k + 4a + b, vertex v's diagonal at 9 nt + 16 ns + v (row −1
+// when a vertex is held). A binary search per pair took a third of the structure's build
+// time, its branches mispredicted.
+void build_block_pattern(const Triangles& T, int32_t nv, ImplicitSolver& s) {
+  const int32_t nt = T.size();
   s.pair_row.clear();
   s.pair_column.clear();
   auto add_pair = [&](int32_t a, int32_t b) {
@@ -209,11 +198,16 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
     }
   }
 
-  const int32_t n = 3 * s.free_count;
   s.tri_block.resize(nt);
   for (int32_t t = 0; t < nt; ++t)
     for (int e = 0; e < 9; ++e) s.tri_block[t][e] = s.pair_key[9 * t + e];
 
+}
+
+void add_constant_blocks(const Vertices& V, const ImplicitParams& params, ImplicitSolver& s) {
+  const int32_t nv = V.size(), nt = static_cast<int32_t>(s.tri_block.size());
+  const int32_t ns = static_cast<int32_t>(s.stencils.size());
+  const int32_t stencil_pairs = 9 * nt, vertex_pairs = stencil_pairs + 16 * ns;
   // Constant part: lumped mass with mass damping, and the (constant) bending Hessian Q. Each is c·I added to
   // a block; the entries of c·I (diagonal, and the zeros times the factors off it) are formed once, in the
   // order of the Eigen expression `Mat3::Identity() * f * g * k` they replace (bit-identical sums).
@@ -240,7 +234,10 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
         if (i >= 0 && j < 0) s.bending_held.push_back({i, st.v[b], kscale * st.w[a] * st.w[b]});
       }
   }
+}
 
+void analyse_if_changed(const Vertices& V, const ImplicitParams& params, ImplicitSolver& s) {
+  const int32_t nv = V.size();
   std::vector<Vec2> free_rest(s.free_count);  // the pattern positions let the solver order by nested dissection
   for (int32_t v = 0; v < nv; ++v)
     if (s.free_index[v] >= 0) free_rest[s.free_index[v]] = V.rest[v];
@@ -256,7 +253,10 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
     s.analysed_rest = std::move(free_rest);
     s.stats.analyses += 1;
   }
-  s.block_values.resize(s.block_key.size());
+}
+
+void plan_assembly(const Triangles& T, ImplicitSolver& s) {
+  const int32_t nt = T.size();
   // The factorisation reads one block of each symmetric pair: the triangles scatter into that one only.
   for (std::array<int32_t, 9>& tb : s.tri_block)
     for (int32_t& b : tb)
@@ -276,6 +276,29 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
       if (ia >= 0 && ib < 0) s.stiffness_held.push_back({t, k, ia, T.tri[t][b], false});
       if (ib >= 0 && ia < 0) s.stiffness_held.push_back({t, k, ib, T.tri[t][a], true});
     }
+}
+
+void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vector<int32_t> held_sorted,
+                     ImplicitSolver& s) {
+  const Vertices& V = sheet.verts;
+  const Triangles& T = sheet.tris;
+  const int32_t nv = V.size(), nt = T.size();
+  s.version = sheet.topology_version;
+  s.held = std::move(held_sorted);
+  s.dt = params.dt;
+  s.material = key_of(sheet.material);
+  s.alpha = params.mass_damping;
+  s.beta = params.stiffness_damping;
+
+  number_free_vertices(nv, s);
+  build_bending_stencils(V.rest, sheet.topo.hinges, bending_stiffness(sheet.material), s.stencils);
+  build_block_pattern(T, nv, s);
+  add_constant_blocks(V, params, s);
+  analyse_if_changed(V, params, s);
+  s.block_values.resize(s.block_key.size());
+  plan_assembly(T, s);
+
+  const int32_t n = 3 * s.free_count;
   s.analysed = true;
   s.tri_k.resize(nt);
   s.tri_energy.resize(nt);
@@ -357,13 +380,340 @@ bool energy_bounded(const Sheet& sheet, ImplicitSolver& s, const ImplicitParams&
   return excess <= dissipated + 1e-10 * energy;
 }
 
+// Per triangle (parallel, each writes its own slots): corotated forces of membrane_forces, the energy
+// and the stiffness with R frozen (see the header): in plane
+//   K_ab = e A [(1 + κ) μ (g_a·g_b) R Rᵀ + (1 − κ) μ (R g_b)(R g_a)ᵀ + λ (R g_a)(R g_b)ᵀ],
+// κ the exact spin stiffness of the corotated energy (projected ≥ 0), or the brake's κ.
+void triangle_forces_and_stiffness(const ImplicitParams& params, const MembraneParams& mp, double kscale,
+                                   int brake, bool with_forces, const Vertices& V, Triangles& T, ImplicitSolver& s) {
+  const int32_t nt = T.size();
+  params.run(nt, params.grain, [&](int32_t begin, int32_t end) {
+    CorotatedFrame own;  // one polar decomposition per triangle for its forces, energy and stiffness
+    for (int32_t t = begin; t < end; ++t) {
+      const Tri& c = T.tri[t];
+      const std::array<Vec3, 3>& carried = s.next_corners[t];
+      const bool reuse = s.next_valid && carried[0] == V.x[c[0]] && carried[1] == V.x[c[1]] && carried[2] == V.x[c[2]];
+      if (!reuse) corotated_frame(V.x[c[0]], V.x[c[1]], V.x[c[2]], T.rest_inv[t], own);
+      const CorotatedFrame& frame = reuse ? s.next_frame[t] : own;
+      if (with_forces) corotated_corner_forces(frame, T.rest_inv[t], T.rest_area[t], mp, T.corner_force[t]);
+      const Mat32& F = frame.F;
+      const Mat32& R = frame.R;
+      const Mat2& Dinv = T.rest_inv[t];
+      Vec2 g[3];
+      g[1] = Dinv.row(0).transpose();
+      g[2] = Dinv.row(1).transpose();
+      g[0] = -(g[1] + g[2]);
+      const double ea = kscale * mp.thickness * T.rest_area[t];  // the (h² + hβ) of the system folded in
+      const Mat3 in_plane = R * R.transpose();
+      // Geometric (tension) stiffness for out-of-plane motion: g_aᵀ Σ g_b (I − R Rᵀ) with Σ the stress
+      // in the triangle's frame, clamped to its tensile part (paper under compression buckles freely).
+      // Without it a finger lifting a taut sheet would leave its neighbours behind for a substep and
+      // pitch a tent of spurious stretch.
+      Mat2 strain = R.transpose() * F;
+      strain = 0.5 * (strain + strain.transpose()) - Mat2::Identity();
+      Mat2 stress = 2 * mp.mu * strain + mp.lambda * strain.trace() * Mat2::Identity();
+      StrainLimitTangent limit;
+      strain_limit_term(strain, mp, stress, &limit);
+      const Mat2 tension = tensile_part(stress);
+      // A principal direction v stretched past the strain limit adds its modulus k along v:
+      // k (g_a·v)(g_b·v) (R v)(R v)ᵀ (the limit term's Hessian with v frozen, as R is).
+      Vec3 rv[2];
+      double gv[2][3];
+      for (int i = 0; i < limit.count; ++i) {
+        rv[i] = R * limit.direction[i];
+        for (int a = 0; a < 3; ++a) gv[i][a] = g[a].dot(limit.direction[i]);
+      }
+      const double i1 = strain.trace() + 2;  // σ₁ + σ₂
+      const double kappa =
+          brake > 0 ? kBrakeKappa[brake] : std::max(0.0, (mp.mu + mp.lambda) * (i1 - 2) / (mp.mu * i1));
+      if (with_forces) {
+        const double tr = strain.trace();
+        s.tri_energy[t] = mp.thickness * T.rest_area[t] * corotated_energy_density(F, R, tr, mp);
+      }
+      Vec3 rg[3], lambda_rg[3], twist_rg[3];
+      for (int a = 0; a < 3; ++a) {
+        rg[a] = R * g[a];
+        lambda_rg[a] = mp.lambda * rg[a];
+        twist_rg[a] = ((1 - kappa) * mp.mu) * rg[a];
+      }
+      // In-plane part + (g_aᵀ Σ⁺ g_b)(I − RRᵀ), with I − RRᵀ expanded. Entry by entry in scalars, in the
+      // order of the earlier Eigen form (s RRᵀ + (λ R g_a)(R g_b)ᵀ + ((1 − κ)μ R g_b)(R g_a)ᵀ + diagonal,
+      // then the scale, bit for bit): that form mixed 2-lane and scalar stores of one 3x3 temporary and
+      // stalled on store forwarding (a quarter of the frame's time went to this loop).
+      for (int k = 0; k < 6; ++k) {
+        const int a = kPairA[k], b = kPairB[k];
+        const double geometric = g[a].dot(tension * g[b]);
+        const double spin = (1 + kappa) * mp.mu * g[a].dot(g[b]) - geometric;
+        Mat3& out = s.tri_k[t][k];
+        for (int col = 0; col < 3; ++col)
+          for (int row = 0; row < 3; ++row) {
+            double e = spin * in_plane(row, col);
+            e += lambda_rg[a][row] * rg[b][col];
+            e += twist_rg[b][row] * rg[a][col];
+            if (row == col) e += geometric;
+            for (int i = 0; i < limit.count; ++i)
+              e += limit.modulus[i] * gv[i][a] * gv[i][b] * rv[i][row] * rv[i][col];
+            out(row, col) = ea * e;
+          }
+      }
+    }
+  });
+}
+
+// Vertices resting on an obstacle (on its grown surface, to a thousandth of the offset): their velocity
+// into it is filtered out of the solve (Baraff & Witkin 1998, §5: S = I − n nᵀ), so the stiff membrane
+// sees the support in the same step. Those whose support would pull (the sheet lifts off) are released and
+// the step solved again; new contacts are caught after the solve (update_contacts).
+void find_resting_contacts(const ImplicitParams& params, const Vertices& V, ImplicitSolver& s) {
+  const int32_t nv = V.size();
+  s.resting.clear();
+  if (!params.obstacles.empty()) {
+    ScopedTimer timer(s.stats.contact_ms);
+    const double tolerance = std::max(1e-3 * params.contact_offset, 1e-12);
+    for (int32_t v = 0; v < nv; ++v) {
+      if (s.free_index[v] < 0) continue;
+      Vec3 n;
+      for (const Obstacle& o : params.obstacles)
+        if (resting_contact_normal(o, params.contact_offset, tolerance, V.x[v], n)) {
+          s.resting.push_back({v, s.free_index[v], n, o.friction});
+          break;
+        }
+    }
+  }
+}
+
+// values ← S A S + c n nᵀ per resting row (c its diagonal's scale, so the pivots stay of one size), rhs ←
+// S rhs: the solution has no velocity into the obstacle. A and rhs are kept for the reactions.
+void filter_resting(std::vector<Mat3>& values, ImplicitSolver& s) {
+  ScopedTimer timer(s.stats.contact_ms);
+  s.unfiltered_values = values;
+  s.unfiltered_rhs = s.rhs;
+  s.resting_of_row.assign(s.free_count, -1);
+  for (size_t c = 0; c < s.resting.size(); ++c) s.resting_of_row[s.resting[c].row] = static_cast<int32_t>(c);
+  // v = S y + n z: the prescribed normal velocities z move to the right-hand side, rhs −= A z.
+  for (size_t k = 0; k < s.block_key.size(); ++k) {
+    if (!s.ldlt.key_read[k]) continue;
+    const auto [i, j] = s.block_key[k];
+    const int32_t a = s.resting_of_row[i], b = s.resting_of_row[j];
+    if (b >= 0 && s.resting[b].target != 0)
+      s.rhs.segment<3>(3 * i) -= values[k] * (s.resting[b].target * s.resting[b].normal);
+    if (a >= 0 && i != j && s.resting[a].target != 0)
+      s.rhs.segment<3>(3 * j) -= values[k].transpose() * (s.resting[a].target * s.resting[a].normal);
+  }
+  // S = I − n nᵀ sliding, 0 sticking; the pivots of the prescribed directions keep the block's scale.
+  auto filter = [&](int32_t c) -> Mat3 {
+    return s.resting[c].stick ? Mat3::Zero().eval() : (Mat3::Identity() - s.resting[c].normal * s.resting[c].normal.transpose()).eval();
+  };
+  for (size_t k = 0; k < s.block_key.size(); ++k) {
+    if (!s.ldlt.key_read[k]) continue;
+    const int32_t a = s.resting_of_row[s.block_key[k].first], b = s.resting_of_row[s.block_key[k].second];
+    if (a < 0 && b < 0) continue;
+    Mat3& block = values[k];
+    const double scale = block.trace() / 3;
+    if (a >= 0) block = filter(a) * block;
+    if (b >= 0) block = block * filter(b);
+    if (a >= 0 && a == b) block += scale * (Mat3::Identity() - filter(a));
+  }
+  for (size_t c = 0; c < s.resting.size(); ++c) {
+    auto r = s.rhs.segment<3>(3 * s.resting[c].row);
+    r = filter(static_cast<int32_t>(c)) * r;
+    if (!s.resting[c].stick) r += s.resting[c].friction;
+  }
+}
+
+// Each constrained vertex's impulse A v⁺ − b (less its sliding friction), from the unfiltered system.
+void resting_reactions(ImplicitSolver& s) {
+  ScopedTimer timer(s.stats.contact_ms);
+  std::vector<Vec3> residual(s.resting.size());
+  for (size_t c = 0; c < s.resting.size(); ++c) residual[c] = -s.unfiltered_rhs.segment<3>(3 * s.resting[c].row);
+  for (size_t k = 0; k < s.block_key.size(); ++k) {
+    if (!s.ldlt.key_read[k]) continue;
+    const auto [i, j] = s.block_key[k];
+    const int32_t a = s.resting_of_row[i], b = s.resting_of_row[j];
+    if (a >= 0) residual[a] += s.unfiltered_values[k] * s.solution.segment<3>(3 * j);
+    if (b >= 0 && i != j) residual[b] += s.unfiltered_values[k].transpose() * s.solution.segment<3>(3 * i);
+  }
+  for (size_t c = 0; c < s.resting.size(); ++c) {
+    ImplicitSolver::RestingContact& r = s.resting[c];
+    r.impulse = residual[c] - (r.stick ? Vec3::Zero() : r.friction);
+    r.reaction = r.normal.dot(r.impulse);
+  }
+}
+
+// Assemble the matrix values (serial, triangle order: deterministic) and the coupling to held vertices,
+// factorise, solve: vnext holds v⁺ of every vertex.
+bool assemble_and_solve(const ImplicitParams& params, double kscale, const Vertices& V, const Triangles& T,
+                        ImplicitSolver& s) {
+  const int32_t nv = V.size();
+  const int32_t nt = T.size();
+  const double h = params.dt;
+  std::vector<Vec3>& vnext = s.velocity_next;
+  std::vector<Mat3>& values = s.block_values;
+  {
+    ScopedTimer timer(s.stats.assembly_ms);
+    std::copy(s.base_values.begin(), s.base_values.end(), values.begin());
+    s.rhs.setZero();
+    for (int32_t v = 0; v < nv; ++v) {
+      const int32_t i = s.free_index[v];
+      if (i < 0) continue;
+      s.rhs.segment<3>(3 * i) = V.mass[v] * V.v[v] + h * (V.force[v] + V.mass[v] * params.gravity);
+    }
+    // A spring k (anchor − x): its force on the right, its stiffness on the diagonal, like the membrane's.
+    for (const ImplicitParams::Spring& spring : params.springs) {
+      const int32_t i = spring.vertex >= 0 && spring.vertex < nv ? s.free_index[spring.vertex] : -1;
+      if (i < 0) continue;
+      s.rhs.segment<3>(3 * i) += h * spring.stiffness * (spring.anchor - V.x[spring.vertex]);
+      values[s.diagonal_key[i]].diagonal().array() += kscale * spring.stiffness;
+    }
+    for (int32_t t = 0; t < nt; ++t)
+      for (int k = 0; k < 6; ++k) {
+        const int32_t dest = s.tri_dest[t][k];
+        if (dest >= 0)
+          values[dest] += s.tri_k[t][k];
+        else if (dest < -1)
+          values[-2 - dest] += s.tri_k[t][k].transpose();
+      }
+    for (const ImplicitSolver::HeldStiffness& c : s.stiffness_held) {
+      const Mat3& kab = s.tri_k[c.triangle][c.pair];
+      if (c.transpose)
+        s.rhs.segment<3>(3 * c.row) -= kab.transpose() * vnext[c.held_vertex];
+      else
+        s.rhs.segment<3>(3 * c.row) -= kab * vnext[c.held_vertex];
+    }
+    for (const ImplicitSolver::HeldCoupling& c : s.bending_held)
+      s.rhs.segment<3>(3 * c.row) -= c.weight * vnext[c.held_vertex];
+    if (!s.resting.empty()) filter_resting(values, s);
+  }
+
+  {
+    ScopedTimer timer(s.stats.factorization_ms);  // a refused factorisation returns from inside
+    s.stats.factorizations += 1;
+    if (!factorize_block_ldlt(values, params.run, s.ldlt)) {
+      // The matrix is positive definite in exact arithmetic (lumped masses plus positive semidefinite
+      // stiffness), so a refused pivot is rounding: a sliver's stiffness 10⁸ times its neighbours' puts the
+      // condition near 1/ε. Rather than freeze the sheet for the substep, shift the diagonal by 10⁻¹⁴ of
+      // its largest entry (then 10⁻¹², 10⁻¹⁰) and factorise again: extra inertia for that substep only,
+      // comparable to a vertex's mass when a sliver makes the largest entry huge, negligible otherwise.
+      double largest = 0;
+      for (int32_t i = 0; i < s.free_count; ++i)
+        largest = std::max(largest, values[s.diagonal_key[i]].diagonal().maxCoeff());
+      bool factored = false;
+      for (const double relative : {1e-14, 1e-12, 1e-10}) {
+        for (int32_t i = 0; i < s.free_count; ++i)
+          values[s.diagonal_key[i]].diagonal().array() += relative * largest;
+        s.stats.factorizations += 1;
+        if ((factored = factorize_block_ldlt(values, params.run, s.ldlt))) break;
+      }
+      if (!factored) {
+        s.stats.failures += 1;
+        return false;
+      }
+      s.stats.regularised += 1;
+    }
+  }
+  {
+    ScopedTimer timer(s.stats.solve_ms);
+    solve_block_ldlt(s.ldlt, s.rhs.data(), s.solution.data(), params.run);
+  }
+  if (!s.solution.allFinite()) {
+    s.stats.failures += 1;
+    return false;
+  }
+  for (const ImplicitSolver::RestingContact& c : s.resting) {  // v = S y + n z exactly
+    auto y = s.solution.segment<3>(3 * c.row);
+    if (c.stick) y.setZero();
+    else y -= c.normal * c.normal.dot(y);
+    y += c.target * c.normal;
+  }
+  for (int32_t v = 0; v < nv; ++v) {
+    const int32_t i = s.free_index[v];
+    if (i >= 0) vnext[v] = s.solution.segment<3>(3 * i);
+  }
+  return true;
+}
+
+// The linearised step may rotate triangles far enough that the true membrane energy at x⁺ exceeds what
+// the step dissipated: then redo it with a stronger spin brake, kept for the next kBrakeSubsteps. (The
+// filter keeps the check valid: a resting vertex's reaction is normal to its velocity, so it does no work.)
+bool solve_with_energy_check(const ImplicitParams& params, const MembraneParams& mp, double kscale, int& brake,
+                             Sheet& sheet, ImplicitSolver& s) {
+  if (!assemble_and_solve(params, kscale, sheet.verts, sheet.tris, s)) return false;
+  while (brake < kBrakeLevels - 1 && !energy_bounded(sheet, s, params, kscale, mp)) {
+    brake += 1;
+    s.stats.brakes += 1;
+    s.brake = brake;
+    s.braked_left = kBrakeSubsteps;
+    triangle_forces_and_stiffness(params, mp, kscale, brake, false, sheet.verts, sheet.tris, s);
+    if (!assemble_and_solve(params, kscale, sheet.verts, sheet.tris, s)) return false;
+  }
+  return true;
+}
+
+// A support that pulls is none: release those vertices; a free vertex whose step would enter an obstacle
+// lands on it this substep (prescribed normal velocity −gap/h), so the membrane around it answers in the
+// same solve rather than after a projection (projecting stiff paper after the solve stretched it: a sheet
+// dropped over a box gained energy, 1.7 mJ at its impact, and never came to rest). Then solve again; a
+// few rounds at most, what is left is caught by the pass after the solve. True when the set changed.
+bool update_contacts(const ImplicitParams& params, const Vertices& V, ImplicitSolver& s) {
+  const int32_t nv = V.size();
+  const double h = params.dt;
+  std::vector<Vec3>& vnext = s.velocity_next;
+  ScopedTimer timer(s.stats.contact_ms);
+  bool changed = false;
+  if (!s.resting.empty()) {
+    resting_reactions(s);
+    const size_t before = s.resting.size();
+    std::erase_if(s.resting, [](const ImplicitSolver::RestingContact& c) { return c.reaction < 0; });
+    s.stats.releases += static_cast<int64_t>(before - s.resting.size());
+    changed = s.resting.size() != before;
+    // Coulomb, in the solve: a vertex sticks while the tangential impulse its support gives stays within
+    // μ λ; one that slides gets the friction impulse μ λ against its motion (from the last solve). A slider
+    // whose momentum along the surface, friction taken off, is within μ λ sticks.
+    for (ImplicitSolver::RestingContact& c : s.resting) {
+      const double cap = c.mu * c.reaction;
+      if (c.stick) {
+        const Vec3 along = c.impulse - c.normal * c.reaction;
+        if (along.norm() <= cap) continue;
+        c.stick = false;
+        c.friction = (cap / along.norm()) * along;
+        changed = true;
+        continue;
+      }
+      const Vec3& v = vnext[c.vertex];
+      const Vec3 momentum = V.mass[c.vertex] * (1 + h * s.alpha) * (v - c.normal * c.normal.dot(v)) - c.friction;
+      if (momentum.norm() <= cap) {
+        c.stick = true;
+        c.friction.setZero();
+        changed = true;
+        continue;
+      }
+      const Vec3 friction = (-cap / momentum.norm()) * momentum;
+      if ((friction - c.friction).norm() > 0.1 * cap) changed = true;
+      c.friction = friction;
+    }
+  }
+  s.constrained.assign(nv, 0);
+  for (const ImplicitSolver::RestingContact& c : s.resting) s.constrained[c.vertex] = 1;
+  for (int32_t v = 0; v < nv; ++v) {
+    if (s.free_index[v] < 0 || s.constrained[v]) continue;
+    Vec3 n, on;
+    double friction = 0;
+    if (!entered_surface(params.obstacles, params.contact_offset, V.x[v], V.x[v] + h * vnext[v], n, on, friction))
+      continue;
+    s.resting.push_back({v, s.free_index[v], n, friction, -n.dot(V.x[v] - on) / h});
+    s.stats.arrivals += 1;
+    changed = true;
+  }
+  return changed;
+}
+
 }  // namespace
 
 bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& held,
                       const std::vector<Vec3>& held_target, ImplicitSolverPtr& solver, Sheet& sheet) {
   Vertices& V = sheet.verts;
   Triangles& T = sheet.tris;
-  const int32_t nv = V.size(), nt = T.size();
+  const int32_t nv = V.size();
   std::vector<int32_t> held_sorted = held;
   std::sort(held_sorted.begin(), held_sorted.end());
   held_sorted.erase(std::unique(held_sorted.begin(), held_sorted.end()), held_sorted.end());
@@ -388,328 +738,23 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   vnext.assign(nv, Vec3::Zero());
   for (size_t k = 0; k < held.size(); ++k) vnext[held[k]] = (held_target[k] - V.x[held[k]]) / h;
 
-  // Per triangle (parallel, each writes its own slots): corotated forces of membrane_forces, the energy
-  // and the stiffness with R frozen (see the header): in plane
-  //   K_ab = e A [(1 + κ) μ (g_a·g_b) R Rᵀ + (1 − κ) μ (R g_b)(R g_a)ᵀ + λ (R g_a)(R g_b)ᵀ],
-  // κ the exact spin stiffness of the corotated energy (projected ≥ 0), or the brake's κ.
-  auto build_stiffness = [&](int brake, bool with_forces) {
-    params.run(nt, params.grain, [&](int32_t begin, int32_t end) {
-      CorotatedFrame own;  // one polar decomposition per triangle for its forces, energy and stiffness
-      for (int32_t t = begin; t < end; ++t) {
-        const Tri& c = T.tri[t];
-        const std::array<Vec3, 3>& carried = s.next_corners[t];
-        const bool reuse = s.next_valid && carried[0] == V.x[c[0]] && carried[1] == V.x[c[1]] && carried[2] == V.x[c[2]];
-        if (!reuse) corotated_frame(V.x[c[0]], V.x[c[1]], V.x[c[2]], T.rest_inv[t], own);
-        const CorotatedFrame& frame = reuse ? s.next_frame[t] : own;
-        if (with_forces) corotated_corner_forces(frame, T.rest_inv[t], T.rest_area[t], mp, T.corner_force[t]);
-        const Mat32& F = frame.F;
-        const Mat32& R = frame.R;
-        const Mat2& Dinv = T.rest_inv[t];
-        Vec2 g[3];
-        g[1] = Dinv.row(0).transpose();
-        g[2] = Dinv.row(1).transpose();
-        g[0] = -(g[1] + g[2]);
-        const double ea = kscale * mp.thickness * T.rest_area[t];  // the (h² + hβ) of the system folded in
-        const Mat3 in_plane = R * R.transpose();
-        // Geometric (tension) stiffness for out-of-plane motion: g_aᵀ Σ g_b (I − R Rᵀ) with Σ the stress
-        // in the triangle's frame, clamped to its tensile part (paper under compression buckles freely).
-        // Without it a finger lifting a taut sheet would leave its neighbours behind for a substep and
-        // pitch a tent of spurious stretch.
-        Mat2 strain = R.transpose() * F;
-        strain = 0.5 * (strain + strain.transpose()) - Mat2::Identity();
-        Mat2 stress = 2 * mp.mu * strain + mp.lambda * strain.trace() * Mat2::Identity();
-        StrainLimitTangent limit;
-        strain_limit_term(strain, mp, stress, &limit);
-        const Mat2 tension = tensile_part(stress);
-        // A principal direction v stretched past the strain limit adds its modulus k along v:
-        // k (g_a·v)(g_b·v) (R v)(R v)ᵀ (the limit term's Hessian with v frozen, as R is).
-        Vec3 rv[2];
-        double gv[2][3];
-        for (int i = 0; i < limit.count; ++i) {
-          rv[i] = R * limit.direction[i];
-          for (int a = 0; a < 3; ++a) gv[i][a] = g[a].dot(limit.direction[i]);
-        }
-        const double i1 = strain.trace() + 2;  // σ₁ + σ₂
-        const double kappa =
-            brake > 0 ? kBrakeKappa[brake] : std::max(0.0, (mp.mu + mp.lambda) * (i1 - 2) / (mp.mu * i1));
-        if (with_forces) {
-          const double tr = strain.trace();
-          s.tri_energy[t] = mp.thickness * T.rest_area[t] * corotated_energy_density(F, R, tr, mp);
-        }
-        Vec3 rg[3], lambda_rg[3], twist_rg[3];
-        for (int a = 0; a < 3; ++a) {
-          rg[a] = R * g[a];
-          lambda_rg[a] = mp.lambda * rg[a];
-          twist_rg[a] = ((1 - kappa) * mp.mu) * rg[a];
-        }
-        // In-plane part + (g_aᵀ Σ⁺ g_b)(I − RRᵀ), with I − RRᵀ expanded. Entry by entry in scalars, in the
-        // order of the earlier Eigen form (s RRᵀ + (λ R g_a)(R g_b)ᵀ + ((1 − κ)μ R g_b)(R g_a)ᵀ + diagonal,
-        // then the scale, bit for bit): that form mixed 2-lane and scalar stores of one 3x3 temporary and
-        // stalled on store forwarding (a quarter of the frame's time went to this loop).
-        for (int k = 0; k < 6; ++k) {
-          const int a = kPairA[k], b = kPairB[k];
-          const double geometric = g[a].dot(tension * g[b]);
-          const double spin = (1 + kappa) * mp.mu * g[a].dot(g[b]) - geometric;
-          Mat3& out = s.tri_k[t][k];
-          for (int col = 0; col < 3; ++col)
-            for (int row = 0; row < 3; ++row) {
-              double e = spin * in_plane(row, col);
-              e += lambda_rg[a][row] * rg[b][col];
-              e += twist_rg[b][row] * rg[a][col];
-              if (row == col) e += geometric;
-              for (int i = 0; i < limit.count; ++i)
-                e += limit.modulus[i] * gv[i][a] * gv[i][b] * rv[i][row] * rv[i][col];
-              out(row, col) = ea * e;
-            }
-        }
-      }
-    });
-  };
   int brake = 0;
   if (s.braked_left > 0) {
     brake = s.brake;
     s.braked_left -= 1;
   }
-  build_stiffness(brake, true);
+  triangle_forces_and_stiffness(params, mp, kscale, brake, true, V, T, s);
 
   // Forces on vertices in a fixed order (no atomics), then bending.
   gather_corner_forces(sheet.topo, T.tri, T.corner_force, 0, nv, V.force);
   add_bending_forces(V.x, s.stencils, V.force);
 
-  // Vertices resting on an obstacle (on its grown surface, to a thousandth of the offset): their velocity
-  // into it is filtered out of the solve (Baraff & Witkin 1998, §5: S = I − n nᵀ), so the stiff membrane
-  // sees the support in the same step. Those whose support would pull (the sheet lifts off) are released and
-  // the step solved again; new contacts are caught after the solve (see the end of this function).
-  s.resting.clear();
-  if (!params.obstacles.empty()) {
-    ScopedTimer timer(s.stats.contact_ms);
-    const double tolerance = std::max(1e-3 * params.contact_offset, 1e-12);
-    for (int32_t v = 0; v < nv; ++v) {
-      if (s.free_index[v] < 0) continue;
-      Vec3 n;
-      for (const Obstacle& o : params.obstacles)
-        if (resting_contact_normal(o, params.contact_offset, tolerance, V.x[v], n)) {
-          s.resting.push_back({v, s.free_index[v], n, o.friction});
-          break;
-        }
-    }
-  }
-  // values ← S A S + c n nᵀ per resting row (c its diagonal's scale, so the pivots stay of one size), rhs ←
-  // S rhs: the solution has no velocity into the obstacle. A and rhs are kept for the reactions.
-  auto filter_resting = [&](std::vector<Mat3>& values) {
-    ScopedTimer timer(s.stats.contact_ms);
-    s.unfiltered_values = values;
-    s.unfiltered_rhs = s.rhs;
-    s.resting_of_row.assign(s.free_count, -1);
-    for (size_t c = 0; c < s.resting.size(); ++c) s.resting_of_row[s.resting[c].row] = static_cast<int32_t>(c);
-    // v = S y + n z: the prescribed normal velocities z move to the right-hand side, rhs −= A z.
-    for (size_t k = 0; k < s.block_key.size(); ++k) {
-      if (!s.ldlt.key_read[k]) continue;
-      const auto [i, j] = s.block_key[k];
-      const int32_t a = s.resting_of_row[i], b = s.resting_of_row[j];
-      if (b >= 0 && s.resting[b].target != 0)
-        s.rhs.segment<3>(3 * i) -= values[k] * (s.resting[b].target * s.resting[b].normal);
-      if (a >= 0 && i != j && s.resting[a].target != 0)
-        s.rhs.segment<3>(3 * j) -= values[k].transpose() * (s.resting[a].target * s.resting[a].normal);
-    }
-    // S = I − n nᵀ sliding, 0 sticking; the pivots of the prescribed directions keep the block's scale.
-    auto filter = [&](int32_t c) -> Mat3 {
-      return s.resting[c].stick ? Mat3::Zero().eval() : (Mat3::Identity() - s.resting[c].normal * s.resting[c].normal.transpose()).eval();
-    };
-    for (size_t k = 0; k < s.block_key.size(); ++k) {
-      if (!s.ldlt.key_read[k]) continue;
-      const int32_t a = s.resting_of_row[s.block_key[k].first], b = s.resting_of_row[s.block_key[k].second];
-      if (a < 0 && b < 0) continue;
-      Mat3& block = values[k];
-      const double scale = block.trace() / 3;
-      if (a >= 0) block = filter(a) * block;
-      if (b >= 0) block = block * filter(b);
-      if (a >= 0 && a == b) block += scale * (Mat3::Identity() - filter(a));
-    }
-    for (size_t c = 0; c < s.resting.size(); ++c) {
-      auto r = s.rhs.segment<3>(3 * s.resting[c].row);
-      r = filter(static_cast<int32_t>(c)) * r;
-      if (!s.resting[c].stick) r += s.resting[c].friction;
-    }
-  };
-  // Each constrained vertex's impulse A v⁺ − b (less its sliding friction), from the unfiltered system.
-  auto resting_reactions = [&]() {
-    ScopedTimer timer(s.stats.contact_ms);
-    std::vector<Vec3> residual(s.resting.size());
-    for (size_t c = 0; c < s.resting.size(); ++c) residual[c] = -s.unfiltered_rhs.segment<3>(3 * s.resting[c].row);
-    for (size_t k = 0; k < s.block_key.size(); ++k) {
-      if (!s.ldlt.key_read[k]) continue;
-      const auto [i, j] = s.block_key[k];
-      const int32_t a = s.resting_of_row[i], b = s.resting_of_row[j];
-      if (a >= 0) residual[a] += s.unfiltered_values[k] * s.solution.segment<3>(3 * j);
-      if (b >= 0 && i != j) residual[b] += s.unfiltered_values[k].transpose() * s.solution.segment<3>(3 * i);
-    }
-    for (size_t c = 0; c < s.resting.size(); ++c) {
-      ImplicitSolver::RestingContact& r = s.resting[c];
-      r.impulse = residual[c] - (r.stick ? Vec3::Zero() : r.friction);
-      r.reaction = r.normal.dot(r.impulse);
-    }
-  };
+  find_resting_contacts(params, V, s);
 
-  // Assemble the matrix values (serial, triangle order: deterministic) and the coupling to held vertices,
-  // factorise, solve: vnext holds v⁺ of every vertex.
-  auto solve = [&]() -> bool {
-    std::vector<Mat3>& values = s.block_values;
-    {
-      ScopedTimer timer(s.stats.assembly_ms);
-      std::copy(s.base_values.begin(), s.base_values.end(), values.begin());
-      s.rhs.setZero();
-      for (int32_t v = 0; v < nv; ++v) {
-        const int32_t i = s.free_index[v];
-        if (i < 0) continue;
-        s.rhs.segment<3>(3 * i) = V.mass[v] * V.v[v] + h * (V.force[v] + V.mass[v] * params.gravity);
-      }
-      // A spring k (anchor − x): its force on the right, its stiffness on the diagonal, like the membrane's.
-      for (const ImplicitParams::Spring& spring : params.springs) {
-        const int32_t i = spring.vertex >= 0 && spring.vertex < nv ? s.free_index[spring.vertex] : -1;
-        if (i < 0) continue;
-        s.rhs.segment<3>(3 * i) += h * spring.stiffness * (spring.anchor - V.x[spring.vertex]);
-        values[s.diagonal_key[i]].diagonal().array() += kscale * spring.stiffness;
-      }
-      for (int32_t t = 0; t < nt; ++t)
-        for (int k = 0; k < 6; ++k) {
-          const int32_t dest = s.tri_dest[t][k];
-          if (dest >= 0)
-            values[dest] += s.tri_k[t][k];
-          else if (dest < -1)
-            values[-2 - dest] += s.tri_k[t][k].transpose();
-        }
-      for (const ImplicitSolver::HeldStiffness& c : s.stiffness_held) {
-        const Mat3& kab = s.tri_k[c.triangle][c.pair];
-        if (c.transpose)
-          s.rhs.segment<3>(3 * c.row) -= kab.transpose() * vnext[c.held_vertex];
-        else
-          s.rhs.segment<3>(3 * c.row) -= kab * vnext[c.held_vertex];
-      }
-      for (const ImplicitSolver::HeldCoupling& c : s.bending_held)
-        s.rhs.segment<3>(3 * c.row) -= c.weight * vnext[c.held_vertex];
-      if (!s.resting.empty()) filter_resting(values);
-    }
-
-    {
-      ScopedTimer timer(s.stats.factorization_ms);  // a refused factorisation returns from inside
-      s.stats.factorizations += 1;
-      if (!factorize_block_ldlt(values, params.run, s.ldlt)) {
-        // The matrix is positive definite in exact arithmetic (lumped masses plus positive semidefinite
-        // stiffness), so a refused pivot is rounding: a sliver's stiffness 10⁸ times its neighbours' puts the
-        // condition near 1/ε. Rather than freeze the sheet for the substep, shift the diagonal by 10⁻¹⁴ of
-        // its largest entry (then 10⁻¹², 10⁻¹⁰) and factorise again: extra inertia for that substep only,
-        // comparable to a vertex's mass when a sliver makes the largest entry huge, negligible otherwise.
-        double largest = 0;
-        for (int32_t i = 0; i < s.free_count; ++i)
-          largest = std::max(largest, values[s.diagonal_key[i]].diagonal().maxCoeff());
-        bool factored = false;
-        for (const double relative : {1e-14, 1e-12, 1e-10}) {
-          for (int32_t i = 0; i < s.free_count; ++i)
-            values[s.diagonal_key[i]].diagonal().array() += relative * largest;
-          s.stats.factorizations += 1;
-          if ((factored = factorize_block_ldlt(values, params.run, s.ldlt))) break;
-        }
-        if (!factored) {
-          s.stats.failures += 1;
-          return false;
-        }
-        s.stats.regularised += 1;
-      }
-    }
-    {
-      ScopedTimer timer(s.stats.solve_ms);
-      solve_block_ldlt(s.ldlt, s.rhs.data(), s.solution.data(), params.run);
-    }
-    if (!s.solution.allFinite()) {
-      s.stats.failures += 1;
-      return false;
-    }
-    for (const ImplicitSolver::RestingContact& c : s.resting) {  // v = S y + n z exactly
-      auto y = s.solution.segment<3>(3 * c.row);
-      if (c.stick) y.setZero();
-      else y -= c.normal * c.normal.dot(y);
-      y += c.target * c.normal;
-    }
-    for (int32_t v = 0; v < nv; ++v) {
-      const int32_t i = s.free_index[v];
-      if (i >= 0) vnext[v] = s.solution.segment<3>(3 * i);
-    }
-    return true;
-  };
-  // The linearised step may rotate triangles far enough that the true membrane energy at x⁺ exceeds what
-  // the step dissipated: then redo it with a stronger spin brake, kept for the next kBrakeSubsteps. (The
-  // filter keeps the check valid: a resting vertex's reaction is normal to its velocity, so it does no work.)
-  auto solve_checked = [&]() -> bool {
-    if (!solve()) return false;
-    while (brake < kBrakeLevels - 1 && !energy_bounded(sheet, s, params, kscale, mp)) {
-      brake += 1;
-      s.stats.brakes += 1;
-      s.brake = brake;
-      s.braked_left = kBrakeSubsteps;
-      build_stiffness(brake, false);
-      if (!solve()) return false;
-    }
-    return true;
-  };
-  if (!solve_checked()) return false;
-  // A support that pulls is none: release those vertices; a free vertex whose step would enter an obstacle
-  // lands on it this substep (prescribed normal velocity −gap/h), so the membrane around it answers in the
-  // same solve rather than after a projection (projecting stiff paper after the solve stretched it: a sheet
-  // dropped over a box gained energy, 1.7 mJ at its impact, and never came to rest). Then solve again; a
-  // few rounds at most, what is left is caught by the pass after the solve.
-  auto update_contacts = [&]() -> bool {  // true when the set changed
-    ScopedTimer timer(s.stats.contact_ms);
-    bool changed = false;
-    if (!s.resting.empty()) {
-      resting_reactions();
-      const size_t before = s.resting.size();
-      std::erase_if(s.resting, [](const ImplicitSolver::RestingContact& c) { return c.reaction < 0; });
-      s.stats.releases += static_cast<int64_t>(before - s.resting.size());
-      changed = s.resting.size() != before;
-      // Coulomb, in the solve: a vertex sticks while the tangential impulse its support gives stays within
-      // μ λ; one that slides gets the friction impulse μ λ against its motion (from the last solve). A slider
-      // whose momentum along the surface, friction taken off, is within μ λ sticks.
-      for (ImplicitSolver::RestingContact& c : s.resting) {
-        const double cap = c.mu * c.reaction;
-        if (c.stick) {
-          const Vec3 along = c.impulse - c.normal * c.reaction;
-          if (along.norm() <= cap) continue;
-          c.stick = false;
-          c.friction = (cap / along.norm()) * along;
-          changed = true;
-          continue;
-        }
-        const Vec3& v = vnext[c.vertex];
-        const Vec3 momentum = V.mass[c.vertex] * (1 + h * s.alpha) * (v - c.normal * c.normal.dot(v)) - c.friction;
-        if (momentum.norm() <= cap) {
-          c.stick = true;
-          c.friction.setZero();
-          changed = true;
-          continue;
-        }
-        const Vec3 friction = (-cap / momentum.norm()) * momentum;
-        if ((friction - c.friction).norm() > 0.1 * cap) changed = true;
-        c.friction = friction;
-      }
-    }
-    s.constrained.assign(nv, 0);
-    for (const ImplicitSolver::RestingContact& c : s.resting) s.constrained[c.vertex] = 1;
-    for (int32_t v = 0; v < nv; ++v) {
-      if (s.free_index[v] < 0 || s.constrained[v]) continue;
-      Vec3 n, on;
-      double friction = 0;
-      if (!entered_surface(params.obstacles, params.contact_offset, V.x[v], V.x[v] + h * vnext[v], n, on, friction))
-        continue;
-      s.resting.push_back({v, s.free_index[v], n, friction, -n.dot(V.x[v] - on) / h});
-      s.stats.arrivals += 1;
-      changed = true;
-    }
-    return changed;
-  };
-  for (int round = 0; round < 4 && !params.obstacles.empty() && update_contacts(); ++round)
-    if (!solve_checked()) return false;
-  if (!s.resting.empty()) resting_reactions();
+  if (!solve_with_energy_check(params, mp, kscale, brake, sheet, s)) return false;
+  for (int round = 0; round < 4 && !params.obstacles.empty() && update_contacts(params, V, s); ++round)
+    if (!solve_with_energy_check(params, mp, kscale, brake, sheet, s)) return false;
+  if (!s.resting.empty()) resting_reactions(s);
   s.stats.resting_contacts += static_cast<int64_t>(s.resting.size());
   // Obstacles after the solve (systems/physics/contact.hpp): free vertices only, a finger wins over a table.
   // Without obstacles the step is bit for bit what it was.
