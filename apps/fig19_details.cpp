@@ -4,20 +4,20 @@
 //   papertear-fig19 SCENARIO_ROW1 SCENARIO_ROW2 [--frames N] [--window MM] [--cell PX] [--out FILE.png]
 //
 // Each scenario is simulated (deterministic, any thread count) and its longest tear's coarse tips are
-// re-carved (systems/carving: detail_path + side labels) at the three resolutions of the paper for an A4
+// re-carved (systems/carving/carving: detail_path + side labels) at the three resolutions of the paper for an A4
 // sheet — 4528 × 3200, 2048 × 1476 and 1169 × 826 over 297 mm, i.e. 65.6, 145 and 254 µm per pixel —
 // with the scenario's σ and ω and the same fiber field (seed and feature size) sampled at that resolution.
 // Row r = scenario r; columns = resolutions, finest first. Every cell is the same physical window
 // (`--window` mm along the tear, centred on its middle), upscaled nearest-neighbour to the same size:
 // the left lip's carved paper (paper colour × fibres) over a dark background, the broken-fibre pixels
 // of the detailed path in a darker fibre colour. Prints the mean deviation of each detailed path from
-// its coarse path (the roughness measure of tests/carving_test.cpp).
+// its coarse path (the roughness measure of tests/carving/carving_test.cpp).
 #include "engine/scenario.hpp"
 #include "engine/sheet_builder.hpp"
 #include "engine/simulation.hpp"
 #include "engine/texture_export.hpp"
-#include "systems/carving.hpp"
-#include "systems/fiber_field.hpp"
+#include "systems/carving/carving.hpp"
+#include "systems/tearing/fiber_field.hpp"
 
 #include <algorithm>
 #include <array>

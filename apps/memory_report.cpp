@@ -14,8 +14,8 @@
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "engine/simulation_internals.hpp"
-#include "systems/carving.hpp"
-#include "systems/fiber_field.hpp"
+#include "systems/carving/carving.hpp"
+#include "systems/tearing/fiber_field.hpp"
 
 #include <algorithm>
 #include <cstdio>

@@ -17,8 +17,8 @@
 #include "engine/simulation.hpp"
 #include "engine/simulation_internals.hpp"
 #include "engine/texture_export.hpp"
-#include "systems/dense_kernels.hpp"
-#include "systems/meshing.hpp"
+#include "systems/solver/dense_kernels.hpp"
+#include "systems/mesh/meshing.hpp"
 
 #include <CLI/CLI.hpp>
 #include <fcntl.h>

@@ -1,9 +1,9 @@
 // papertear-self-intersections SCENARIO [--frames N] [--every K]: runs a scenario and prints, every K
-// frames, how many pairs of non-adjacent triangles intersect (systems/self_intersection.hpp), the
+// frames, how many pairs of non-adjacent triangles intersect (systems/mesh/self_intersection.hpp), the
 // measure of the sheet's self-contact (issue 25) before any self-contact handling exists.
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
-#include "systems/self_intersection.hpp"
+#include "systems/mesh/self_intersection.hpp"
 
 #include <chrono>
 #include <cstdio>

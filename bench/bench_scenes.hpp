@@ -3,7 +3,7 @@
 #pragma once
 
 #include "engine/scenario.hpp"
-#include "systems/meshing.hpp"
+#include "systems/mesh/meshing.hpp"
 
 namespace pt::bench {
 

@@ -1,6 +1,6 @@
 // The carving system (paper §6, docs/architecture.md "Details"; issue 5 target: one segment at the default
 // resolution ≤ 50 µs). A segment is ~5 mm at 0.1 mm per pixel (about 50 path pixels), σ = 0.1 mm, ω = 0.5.
-#include "systems/carving.hpp"
+#include "systems/carving/carving.hpp"
 
 #include <benchmark/benchmark.h>
 

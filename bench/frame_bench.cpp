@@ -5,11 +5,11 @@
 
 #include "engine/simulation.hpp"
 #include "engine/simulation_internals.hpp"
-#include "systems/bending_forces.hpp"
-#include "systems/dense_kernels.hpp"
-#include "systems/integrate_implicit.hpp"
-#include "systems/membrane_forces.hpp"
-#include "systems/topology.hpp"
+#include "systems/physics/bending_forces.hpp"
+#include "systems/solver/dense_kernels.hpp"
+#include "systems/physics/integrate_implicit.hpp"
+#include "systems/physics/membrane_forces.hpp"
+#include "systems/common/topology.hpp"
 #include "engine/sheet_builder.hpp"
 
 #include <benchmark/benchmark.h>
@@ -22,7 +22,7 @@ using namespace pt;
 namespace {
 
 // PAPERTEAR_DENSE_KERNELS=avx2 or =baseline runs the suite with that build of the factorisations' kernels
-// (systems/dense_kernels.hpp); the library reads no environment, so the suite passes it on before any
+// (systems/solver/dense_kernels.hpp); the library reads no environment, so the suite passes it on before any
 // benchmark runs, as the command line does.
 [[maybe_unused]] const bool kKernelsFromEnvironment = [] {
   const char* forced = std::getenv("PAPERTEAR_DENSE_KERNELS");
@@ -179,7 +179,7 @@ void BM_FrameNextFrameRelaxation(benchmark::State& state) { frame_few_substeps(s
 BENCHMARK(BM_FrameNextFrameRelaxation)->ArgsProduct({{10000}, {1}, {2}})->Apply(big_sheet_frames);
 
 // The same with "relaxation": "patch": the extra substep after a cut solves only the vertices within 3 cm
-// of the tear (systems/local_relaxation.hpp), the rest of the sheet held; other points propagate as with
+// of the tear (systems/physics/local_relaxation.hpp), the rest of the sheet held; other points propagate as with
 // "substep".
 void BM_FramePatchRelaxation(benchmark::State& state) { frame_few_substeps(state, "patch"); }
 BENCHMARK(BM_FramePatchRelaxation)->ArgsProduct({{10000}, {1}, {2}})->Apply(big_sheet_frames);

@@ -4,15 +4,15 @@
 #include "bench_scenes.hpp"
 
 #include "engine/sheet_builder.hpp"
-#include "systems/block_ldlt.hpp"
-#include "systems/candidates.hpp"
-#include "systems/clustering.hpp"
-#include "systems/material_force.hpp"
-#include "systems/membrane_forces.hpp"
-#include "systems/propagation.hpp"
-#include "systems/regions.hpp"
-#include "systems/remeshing.hpp"
-#include "systems/topology.hpp"
+#include "systems/solver/block_ldlt.hpp"
+#include "systems/tearing/candidates.hpp"
+#include "systems/tearing/clustering.hpp"
+#include "systems/tearing/material_force.hpp"
+#include "systems/physics/membrane_forces.hpp"
+#include "systems/tearing/propagation.hpp"
+#include "systems/tearing/regions.hpp"
+#include "systems/mesh/remeshing.hpp"
+#include "systems/common/topology.hpp"
 
 #include <benchmark/benchmark.h>
 

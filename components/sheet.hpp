@@ -1,7 +1,7 @@
 // The sheet of paper as structure-of-arrays. Plain data only: systems/ computes, engine/ schedules.
 //
 // Invariants kept by every system that changes topology (meshing, remeshing), checked by
-// systems/topology.hpp `check_mesh_invariants`:
+// systems/common/topology.hpp `check_mesh_invariants`:
 //   - every array of Vertices has Vertices::size() entries, every array of Triangles has Triangles::size();
 //   - triangle corners are valid vertex ids, counter-clockwise in the pattern (rest), positive rest area;
 //   - each undirected edge is shared by at most two triangles; every vertex's triangle fan is connected
@@ -130,7 +130,7 @@ struct Hinge {
   std::array<int32_t, 4> v;
 };
 
-// Derived from Triangles by build_topology (systems/topology.hpp), kept up to date by the local refresh
+// Derived from Triangles by build_topology (systems/common/topology.hpp), kept up to date by the local refresh
 // after a cut (refresh_after_local_change) in time that grows with the cut, not with the sheet (issue 3).
 struct Topology {
   uint64_t version = ~uint64_t{0};

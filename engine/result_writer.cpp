@@ -5,7 +5,7 @@
 #include "engine/simulation.hpp"
 #include "engine/simulation_internals.hpp"
 #include "engine/texture_export.hpp"
-#include "systems/carving.hpp"
+#include "systems/carving/carving.hpp"
 
 #include <nlohmann/json.hpp>
 

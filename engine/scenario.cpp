@@ -3,7 +3,7 @@
 // code get the same checks and the same messages.
 #include "engine/scenario.hpp"
 
-#include "systems/meshing.hpp"
+#include "systems/mesh/meshing.hpp"
 #include "systems/tearing/tearing_step.hpp"
 
 #include <nlohmann/json.hpp>

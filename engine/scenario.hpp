@@ -52,7 +52,7 @@ struct SimSettings {
   // other candidates; "next_frame" leaves it to the next frame's physics and treats no other candidate
   // this frame (at most one propagation per frame, no extra substep: the big sheet's choice, where a
   // substep is a whole factorisation); "patch" runs the extra substep on the vertices within
-  // relaxation_radius of the tear's path only, the rest of the sheet held (systems/local_relaxation.hpp),
+  // relaxation_radius of the tear's path only, the rest of the sheet held (systems/physics/local_relaxation.hpp),
   // then treats the other candidates as "substep" does.
   std::string relaxation = "substep";
   double relaxation_radius = 0.03;  // m, pattern: the patch of "patch"

@@ -1,7 +1,7 @@
 #include "engine/sheet_builder.hpp"
 
-#include "systems/meshing.hpp"
-#include "systems/topology.hpp"
+#include "systems/mesh/meshing.hpp"
+#include "systems/common/topology.hpp"
 
 #include <algorithm>
 #include <cmath>

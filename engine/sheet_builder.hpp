@@ -5,11 +5,11 @@
 
 #include "components/sheet.hpp"
 #include "engine/scenario.hpp"
-#include "systems/fiber_field.hpp"
+#include "systems/tearing/fiber_field.hpp"
 
 namespace pt {
 
-// Throws GeometryError (systems/meshing.hpp) on an outline or finger the mesher cannot honour.
+// Throws GeometryError (systems/mesh/meshing.hpp) on an outline or finger the mesher cannot honour.
 Sheet build_sheet(const Scenario& scenario);
 
 // The fiber field and texture frame of a scenario: origin at the outline's bounding-box minimum, pixel

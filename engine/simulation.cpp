@@ -6,19 +6,19 @@
 
 #include "engine/sheet_builder.hpp"
 #include "engine/simulation_internals.hpp"
-#include "systems/bending_forces.hpp"
-#include "systems/candidates.hpp"
-#include "systems/carving.hpp"
-#include "systems/fingers.hpp"
+#include "systems/physics/bending_forces.hpp"
+#include "systems/tearing/candidates.hpp"
+#include "systems/carving/carving.hpp"
+#include "systems/physics/fingers.hpp"
 #include "systems/physics/grip.hpp"
-#include "systems/integrate_implicit.hpp"
-#include "systems/local_relaxation.hpp"
-#include "systems/membrane_forces.hpp"
-#include "systems/regions.hpp"
-#include "systems/scoped_timer.hpp"
-#include "systems/topology.hpp"
+#include "systems/physics/integrate_implicit.hpp"
+#include "systems/physics/local_relaxation.hpp"
+#include "systems/physics/membrane_forces.hpp"
+#include "systems/tearing/regions.hpp"
+#include "systems/common/scoped_timer.hpp"
+#include "systems/common/topology.hpp"
 #include "systems/tearing/tearing_step.hpp"
-#include "systems/vertex_insertion.hpp"
+#include "systems/mesh/vertex_insertion.hpp"
 
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/flow_graph.h>
@@ -613,7 +613,7 @@ struct Simulation::Impl {
 };
 
 // Scenarios built in code (viewer, embedding, batches) get the same checks as files: a reversed key or a
-// NaN target would otherwise run (issue 9, tests/hostile_test.cpp).
+// NaN target would otherwise run (issue 9, tests/engine/hostile_test.cpp).
 namespace {
 
 const EngineOptions& checked_options(const EngineOptions& options) {

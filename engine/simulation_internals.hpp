@@ -5,10 +5,10 @@
 #pragma once
 
 #include "engine/simulation.hpp"
-#include "systems/candidates.hpp"
-#include "systems/carving.hpp"
-#include "systems/fiber_field.hpp"
-#include "systems/integrate_implicit.hpp"
+#include "systems/tearing/candidates.hpp"
+#include "systems/carving/carving.hpp"
+#include "systems/tearing/fiber_field.hpp"
+#include "systems/physics/integrate_implicit.hpp"
 
 #include <vector>
 

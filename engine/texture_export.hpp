@@ -4,8 +4,8 @@
 #pragma once
 
 #include "components/sheet.hpp"
-#include "systems/carving.hpp"
-#include "systems/fiber_field.hpp"
+#include "systems/carving/carving.hpp"
+#include "systems/tearing/fiber_field.hpp"
 
 #include <array>
 #include <cstdint>

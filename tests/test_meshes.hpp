@@ -2,7 +2,7 @@
 #pragma once
 
 #include "components/sheet.hpp"
-#include "systems/topology.hpp"
+#include "systems/common/topology.hpp"
 
 #include <algorithm>
 #include <cmath>

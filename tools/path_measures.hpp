@@ -1,6 +1,6 @@
 // How far a tear's coarse path is from the paths the paper's figures claim (docs/tearing.md "Measured"):
 // the mediator of two fingers (Fig. 14), O'Keefe's direction at each step, and the direction changes of a
-// zigzag (Fig. 16). Shared by the scenario tests (tests/scenarios_test.cpp) and the 16-mesh harness
+// zigzag (Fig. 16). Shared by the scenario tests (tests/engine/scenarios_test.cpp) and the 16-mesh harness
 // (tools/path_claims.cpp), so both measure the same thing.
 #pragma once
 

@@ -8,8 +8,8 @@
 #include "engine/one_line_error.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
-#include "systems/meshing.hpp"
-#include "systems/topology.hpp"
+#include "systems/mesh/meshing.hpp"
+#include "systems/common/topology.hpp"
 
 #include <CLI/CLI.hpp>
 

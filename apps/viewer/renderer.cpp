@@ -5,8 +5,8 @@
 #include <GL/glext.h>
 
 #include "engine/simulation_internals.hpp"
-#include "systems/carving.hpp"
-#include "systems/fiber_field.hpp"
+#include "systems/carving/carving.hpp"
+#include "systems/tearing/fiber_field.hpp"
 
 #include <algorithm>
 #include <cmath>

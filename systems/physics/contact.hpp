@@ -1,5 +1,5 @@
 // Contact of the sheet's vertices with fixed obstacles (planes, boxes) with Coulomb friction, in the implicit
-// substep (systems/integrate_implicit.cpp; docs/physics.md, "Obstacles").
+// substep (systems/physics/integrate_implicit.cpp; docs/physics.md, "Obstacles").
 //
 // Method: constraint filtering in the linear solve (Baraff & Witkin 1998, "Large steps", §5). A vertex
 // resting on an obstacle grown by `offset` at the substep's start has its velocity into it filtered out of

@@ -11,7 +11,7 @@
 #pragma once
 
 #include "components/sheet.hpp"
-#include "systems/integrate_implicit.hpp"
+#include "systems/physics/integrate_implicit.hpp"
 
 namespace pt {
 

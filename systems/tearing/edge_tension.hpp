@@ -8,7 +8,7 @@
 #pragma once
 
 #include "components/sheet.hpp"
-#include "systems/membrane_forces.hpp"
+#include "systems/physics/membrane_forces.hpp"
 
 namespace pt {
 

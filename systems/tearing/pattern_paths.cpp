@@ -2,7 +2,7 @@
 // in a uniform grid, and Dijkstra over the visibility graph of the reflex boundary vertices.
 #include "systems/tearing/pattern_paths.hpp"
 
-#include "systems/topology.hpp"
+#include "systems/common/topology.hpp"
 
 #include <algorithm>
 #include <cmath>

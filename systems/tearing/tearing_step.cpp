@@ -1,7 +1,7 @@
 #include "systems/tearing/tearing_step.hpp"
 
-#include "systems/scoped_timer.hpp"
-#include "systems/topology.hpp"
+#include "systems/common/scoped_timer.hpp"
+#include "systems/common/topology.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -6,12 +6,12 @@
 #pragma once
 
 #include "components/sheet.hpp"
-#include "systems/candidates.hpp"
-#include "systems/clustering.hpp"
-#include "systems/material_force.hpp"
-#include "systems/membrane_forces.hpp"
-#include "systems/propagation.hpp"
-#include "systems/remeshing.hpp"
+#include "systems/tearing/candidates.hpp"
+#include "systems/tearing/clustering.hpp"
+#include "systems/tearing/material_force.hpp"
+#include "systems/physics/membrane_forces.hpp"
+#include "systems/tearing/propagation.hpp"
+#include "systems/mesh/remeshing.hpp"
 #include "systems/tearing/tension_ray_decision.hpp"
 
 #include <cstdint>
@@ -25,7 +25,7 @@ namespace pt {
 // How a tip's direction t is chosen once Griffith's test passes.
 enum class TearDirection {
   Fan,            // eqs. 4–6: minus the bisector of the two force clusters of the tip's fan
-  MaterialForce,  // the J-integral's direction of largest energy release (systems/material_force.hpp)
+  MaterialForce,  // the J-integral's direction of largest energy release (systems/tearing/material_force.hpp)
   TensionRays,    // the load points' shortest paths in the pattern, Er from their reactions
                   // (systems/tearing/tension_ray_decision.hpp)
 };

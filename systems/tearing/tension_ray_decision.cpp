@@ -1,6 +1,6 @@
 #include "systems/tearing/tension_ray_decision.hpp"
 
-#include "systems/topology.hpp"
+#include "systems/common/topology.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -8,7 +8,7 @@
 //   Er ≥ Ef.
 // - t = ±normalize(u_L + u_R), O'Keefe's bisector: for two fingers, the tangent of the hyperbola
 //   |PA| − |PB| = const. Where the rays give no direction into the material (one side empty, the pulls
-//   opposite, t out of the sheet) t is the crack driving force, the J-vector (systems/material_force.hpp).
+//   opposite, t out of the sheet) t is the crack driving force, the J-vector (systems/tearing/material_force.hpp).
 // - At an inward corner (a notch, the kink of an old tear) a tear starts only where the load between the
 //   two sides passes: p must lie on a shortest path between a load point on its left and one on its right,
 //   within `start_wrap` (a physical length): d(A, p) + d(p, B) − d(A, B) ≤ start_wrap. The tension that
@@ -22,9 +22,9 @@
 #pragma once
 
 #include "components/sheet.hpp"
-#include "systems/material_force.hpp"
-#include "systems/membrane_forces.hpp"
-#include "systems/propagation.hpp"
+#include "systems/tearing/material_force.hpp"
+#include "systems/physics/membrane_forces.hpp"
+#include "systems/tearing/propagation.hpp"
 #include "systems/tearing/edge_tension.hpp"
 #include "systems/tearing/tension_rays.hpp"
 

@@ -2,7 +2,7 @@
 // pattern, and O'Keefe's bisector rule for the tear direction.
 #include "systems/tearing/tension_rays.hpp"
 
-#include "systems/topology.hpp"
+#include "systems/common/topology.hpp"
 
 #include <cmath>
 #include <numbers>

@@ -102,7 +102,7 @@ struct TensionRaysScratch {
 //
 // The tension rays at boundary vertex p (a tear tip or a start point) for `loads` (only those on p's
 // piece count). Invalid (status says why; the caller falls back to the J-vector of
-// systems/material_force.hpp) when a side is empty, u_L + u_R ≈ 0, or t does not point into the
+// systems/tearing/material_force.hpp) when a side is empty, u_L + u_R ≈ 0, or t does not point into the
 // material. Serial and in a fixed order: deterministic. No allocation once `scratch` and `out` have
 // served a sheet of that size.
 void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32_t>& piece, const Topology& topo,

@@ -7,9 +7,9 @@
 // cut_tear_segment is called on each; after each: check_mesh_invariants(sheet, area) empty, every rest and
 // 3D position finite, 3D positions of new vertices the affine image of their pattern position (barycentric
 // interpolation of an affine map), tips on boundary vertices. Any violation aborts.
-#include "systems/meshing.hpp"
-#include "systems/remeshing.hpp"
-#include "systems/topology.hpp"
+#include "systems/mesh/meshing.hpp"
+#include "systems/mesh/remeshing.hpp"
+#include "systems/common/topology.hpp"
 #include "tests/test_meshes.hpp"
 
 #include <fuzzer/FuzzedDataProvider.h>

@@ -7,7 +7,7 @@
 // clockwise triangles, at most max_mesh_triangles of them, a vertex at each required point). Requests
 // above kMeshedTriangles are validated only, so an execution stays short.
 #include "engine/scenario.hpp"
-#include "systems/meshing.hpp"
+#include "systems/mesh/meshing.hpp"
 
 #include <cstdint>
 #include <cstdio>

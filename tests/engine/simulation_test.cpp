@@ -1,0 +1,212 @@
+// The engine's frame (docs/architecture.md "The frame") seen from outside: after every step the sheet is
+// in the state the graph's order leaves it, and each sim.relaxation mode does what docs/scenario-format.md
+// promises. Everything is checked against what the systems compute from the sheet itself, not a hash.
+#include "engine/scenario.hpp"
+#include "engine/simulation.hpp"
+#include "engine/simulation_internals.hpp"
+#include "systems/physics/bending_forces.hpp"
+#include "systems/tearing/candidates.hpp"
+#include "systems/physics/membrane_forces.hpp"
+#include "systems/tearing/regions.hpp"
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <string>
+#include <vector>
+
+using namespace pt;
+
+namespace {
+
+Scenario fig14(const std::string& relaxation = "substep") {
+  Scenario s = load_scenario(std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json");
+  s.sim.relaxation = relaxation;
+  return s;
+}
+
+EngineOptions one_thread() {
+  EngineOptions o;
+  o.threads = 1;
+  o.check_invariants = true;
+  return o;
+}
+
+// The internal forces of the sheet's current positions, as the forces system computes them (membrane
+// corner forces gathered per vertex, then bending), in one range: the engine's kernels run one range
+// on a sheet no larger than parallel_grain, so the sums are the same bits.
+std::vector<Vec3> forces_of(const Sheet& s) {
+  std::vector<std::array<Vec3, 3>> corner(s.tris.size());
+  compute_membrane_forces(s.verts.x, s.tris.tri, s.tris.rest_inv, s.tris.rest_area, membrane_params(s.material), 0,
+                          s.tris.size(), corner);
+  std::vector<Vec3> force(s.verts.size());
+  gather_corner_forces(s.topo, s.tris.tri, corner, 0, s.verts.size(), force);
+  std::vector<BendingStencil> bending;
+  build_bending_stencils(s.verts.rest, s.topo.hinges, bending_stiffness(s.material), bending);
+  add_bending_forces(s.verts.x, bending, force);
+  return force;
+}
+
+int32_t segments(const Tear& t) { return static_cast<int32_t>(t.tips.size()) - 1; }
+
+// Whole-sheet implicit substeps the run took: one numeric factorisation each, plus one per spin-brake redo
+// (the runs below need no regularised retry, which would add more).
+int64_t sheet_substeps(const Simulation& sim) {
+  const ImplicitStats st = solver_stats(sim);
+  EXPECT_EQ(st.regularised, 0);
+  EXPECT_EQ(st.failures, 0);
+  return st.factorizations - st.brakes;
+}
+
+}  // namespace
+
+// fingers ─▶ physics ─▶ forces ─▶ regions ─▶ candidates ─▶ tearing step, carving of the earlier frames'
+// segments beside them. Each frame of Fig. 14 (a notch torn by two fingers pulled apart) ends with
+// - every held finger's vertex at the finger's target of the frame's end: the fingers moved before the
+//   physics, which prescribes the held vertices to the targets;
+// - the sheet's forces those of its final positions: forces ran after the physics (and after each cut's
+//   relaxation), never before it;
+// - on frames without a cut, the region labels those of the final positions and the candidates those the
+//   final flags give: regions ran after the physics, candidates after the regions;
+// - each tear carved up to the segments it had when the frame began: carving ran beside this frame's
+//   physics on the earlier frames' segments, and this frame's wait for the next frame or flush();
+// - the frame's events stamped with its own number.
+TEST(Simulation, FrameRunsItsSystemsInTheGraphsOrder) {
+  const Scenario s = fig14();
+  Simulation sim(s, one_thread());
+  std::vector<int32_t> segments_before;  // per tear, at the start of the frame
+  std::vector<Vec3> targets_before;
+  size_t events_before = 0;
+  int held_checked = 0, moved_targets = 0, quiet_frames = 0, frames_with_cuts = 0, carving_lags = 0;
+  for (int32_t f = 0; f < s.sim.frames; ++f) {
+    segments_before.clear();
+    for (const Tear& t : sim.sheet().tears) segments_before.push_back(segments(t));
+    targets_before.clear();
+    for (const Finger& finger : sim.sheet().fingers) targets_before.push_back(finger.target);
+    const int32_t remeshes_before = sim.remesh_count();
+    sim.step();
+    const Sheet& sheet = sim.sheet();
+    ASSERT_TRUE(sim.stop_reason().empty()) << sim.stop_reason();
+
+    for (size_t i = 0; i < sheet.fingers.size(); ++i) {
+      const Finger& finger = sheet.fingers[i];
+      if (finger.vertex < 0 || finger.slipping) continue;
+      EXPECT_EQ(sheet.verts.x[finger.vertex], finger.target + finger.hold_offset) << "frame " << f << " finger " << i;
+      ++held_checked;
+      if (i < targets_before.size() && finger.target != targets_before[i]) ++moved_targets;
+    }
+
+    ASSERT_LE(sheet.tris.size(), EngineOptions{}.parallel_grain) << "frame " << f << ": forces_of assumes one range";
+    ASSERT_LE(sheet.verts.size(), EngineOptions{}.parallel_grain) << "frame " << f;
+    const std::vector<Vec3> force = forces_of(sheet);
+    ASSERT_EQ(force.size(), sheet.verts.force.size());
+    for (int32_t v = 0; v < sheet.verts.size(); ++v)
+      ASSERT_EQ(sheet.verts.force[v], force[v]) << "frame " << f << " vertex " << v;
+
+    if (sim.remesh_count() == remeshes_before) {
+      ++quiet_frames;
+      std::vector<int32_t> region = sheet.tris.region;
+      std::vector<Region> regions;
+      std::vector<uint8_t> flags = sheet.verts.flags;
+      classify_regions(sheet.verts.x, sheet.tris.tri, sheet.topo, RegionParams{}, region, regions, flags);
+      EXPECT_EQ(region, sheet.tris.region) << "frame " << f;
+      EXPECT_EQ(flags, sheet.verts.flags) << "frame " << f;
+      std::vector<Candidate> listed;
+      FiberSampleCache cache;
+      find_candidates(sheet.verts, sheet.topo.boundary_vertices, sheet.tips, sheet.fingers, sheet.tears, sheet.material,
+                      fiber_field(sim), listed, cache);
+      ASSERT_EQ(listed.size(), tearing_candidates(sim).size()) << "frame " << f;
+      for (size_t c = 0; c < listed.size(); ++c) {
+        EXPECT_EQ(listed[c].vertex, tearing_candidates(sim)[c].vertex) << "frame " << f;
+        EXPECT_EQ(listed[c].kind, tearing_candidates(sim)[c].kind) << "frame " << f;
+        EXPECT_EQ(listed[c].fracture_energy, tearing_candidates(sim)[c].fracture_energy) << "frame " << f;
+      }
+    } else {
+      ++frames_with_cuts;
+    }
+
+    for (size_t t = 0; t < sheet.tears.size(); ++t) {
+      const int32_t at_start = t < segments_before.size() ? segments_before[t] : 0;
+      EXPECT_EQ(sheet.tears[t].carved_segments, at_start) << "frame " << f << " tear " << t;
+      if (segments(sheet.tears[t]) > at_start) ++carving_lags;
+    }
+
+    for (size_t e = events_before; e < sim.events().size(); ++e) EXPECT_EQ(sim.events()[e].frame, f);
+    events_before = sim.events().size();
+  }
+  sim.flush();
+  for (const Tear& t : sim.sheet().tears) EXPECT_EQ(t.carved_segments, segments(t)) << "flush carves the rest";
+  for (const std::string& v : sim.invariant_violations()) ADD_FAILURE() << v;
+  // The checks above ran on frames of each kind.
+  EXPECT_GT(held_checked, s.sim.frames);
+  EXPECT_GT(moved_targets, s.sim.frames / 2);
+  EXPECT_GT(quiet_frames, 10);
+  EXPECT_GT(frames_with_cuts, 3);
+  EXPECT_GT(carving_lags, 3);
+  EXPECT_FALSE(sim.sheet().tears.empty());
+}
+
+// "substep": every cut is followed by one more substep of the whole sheet, and the frame's other
+// candidates are treated after it. A frame whose last substep stopped for a cut runs that substep once
+// more to the frame's end (docs/tearing.md "Quasi-static tearing"): at most one more, and only with a cut.
+TEST(Simulation, SubstepRelaxationRunsOneWholeSheetSubstepPerCut) {
+  const Scenario s = fig14("substep");
+  Simulation sim(s, one_thread());
+  int frames_with_cuts = 0;
+  for (int32_t f = 0; f < s.sim.frames; ++f) {
+    const int32_t cuts = sim.remesh_count();
+    const int64_t before = sheet_substeps(sim);
+    sim.step();
+    const int32_t made = sim.remesh_count() - cuts;
+    if (made > 0) {
+      ++frames_with_cuts;
+      EXPECT_GT(sim.last_profile().relaxation, 0.0) << "frame " << f;
+    }
+    const int64_t extra = sheet_substeps(sim) - before - s.sim.substeps - made;
+    EXPECT_GE(extra, 0) << "frame " << f;
+    EXPECT_LE(extra, made > 0 ? 1 : 0) << "frame " << f;
+  }
+  EXPECT_GT(frames_with_cuts, 3);
+}
+
+// "next_frame": no relaxation substep; the next frame's physics relaxes the cut, so a frame makes at most
+// one propagation.
+TEST(Simulation, NextFrameRelaxationCutsAtMostOncePerFrameWithoutAnExtraSubstep) {
+  const Scenario s = fig14("next_frame");
+  Simulation sim(s, one_thread());
+  int frames_with_cuts = 0;
+  for (int32_t f = 0; f < s.sim.frames; ++f) {
+    const int32_t cuts = sim.remesh_count();
+    sim.step();
+    EXPECT_LE(sim.remesh_count() - cuts, 1) << "frame " << f;
+    if (sim.remesh_count() > cuts) ++frames_with_cuts;
+    EXPECT_EQ(sim.last_profile().relaxation, 0.0) << "frame " << f;
+    EXPECT_EQ(sheet_substeps(sim), int64_t{f + 1} * s.sim.substeps) << "frame " << f;
+  }
+  EXPECT_GT(frames_with_cuts, 3);
+}
+
+// "patch": after each cut a substep relaxes only the patch around the tear (its own small system), so
+// the whole sheet's solver takes the frames' substeps (and the rerun of a last substep that stopped for
+// a cut) and nothing more, while each frame with a cut spends time relaxing.
+TEST(Simulation, PatchRelaxationLeavesTheWholeSheetsSolverToTheFrames) {
+  const Scenario s = fig14("patch");
+  Simulation sim(s, one_thread());
+  int frames_with_cuts = 0;
+  for (int32_t f = 0; f < s.sim.frames; ++f) {
+    const int32_t cuts = sim.remesh_count();
+    const int64_t before = sheet_substeps(sim);
+    sim.step();
+    const bool cut = sim.remesh_count() > cuts;
+    if (cut) {
+      ++frames_with_cuts;
+      EXPECT_GT(sim.last_profile().relaxation, 0.0) << "frame " << f;
+    }
+    const int64_t extra = sheet_substeps(sim) - before - s.sim.substeps;
+    EXPECT_GE(extra, 0) << "frame " << f;
+    EXPECT_LE(extra, cut ? 1 : 0) << "frame " << f;
+  }
+  EXPECT_GE(frames_with_cuts, 2);
+  EXPECT_GT(sim.remesh_count(), 3);
+  for (const std::string& v : sim.invariant_violations()) ADD_FAILURE() << v;
+}

@@ -1,0 +1,266 @@
+// Obstacles (systems/physics/contact.hpp) in the default integrator: after every substep no vertex is
+// below a plane or inside a box; a sheet resting on a table keeps its energy; friction follows Coulomb's
+// law on a slope (stays at μ above tan θ, slides with the analytic acceleration below); a scenario's
+// pieces come to rest on the floor, bit-identically at 1 and 2 threads; every validation error of the
+// "obstacles" key is one line naming the file and the JSON path.
+#include "engine/scenario.hpp"
+#include "engine/simulation.hpp"
+#include "systems/physics/bending_forces.hpp"
+#include "systems/physics/integrate_implicit.hpp"
+#include "systems/physics/membrane_forces.hpp"
+#include "systems/physics/contact.hpp"
+#include "tests/test_meshes.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+using namespace pt;
+
+namespace {
+
+Obstacle plane(const Vec3& point, const Vec3& normal, double friction) {
+  Obstacle o;
+  o.kind = Obstacle::Kind::Plane;
+  o.point = point;
+  o.normal = normal.normalized();
+  o.friction = friction;
+  return o;
+}
+
+Obstacle box(const Vec3& lo, const Vec3& hi, double friction) {
+  Obstacle o;
+  o.kind = Obstacle::Kind::Box;
+  o.min = lo;
+  o.max = hi;
+  o.friction = friction;
+  return o;
+}
+
+double lowest_distance(const Sheet& s, const Obstacle& o) {
+  double lowest = INFINITY;
+  for (const Vec3& x : s.verts.x) lowest = std::min(lowest, obstacle_distance(o, x));
+  return lowest;
+}
+
+double max_speed(const Sheet& s) {
+  double v = 0;
+  for (const Vec3& x : s.verts.v) v = std::max(v, x.norm());
+  return v;
+}
+
+Vec3 centroid(const Sheet& s) {
+  Vec3 c = Vec3::Zero();
+  for (const Vec3& x : s.verts.x) c += x;
+  return c / s.verts.size();
+}
+
+// Kinetic + membrane + bending + gravity's potential.
+double total_energy(const Sheet& s, const Vec3& gravity) {
+  std::vector<BendingStencil> stencils;
+  build_bending_stencils(s.verts.rest, s.topo.hinges, bending_stiffness(s.material), stencils);
+  double e = membrane_energy(s.verts.x, s.tris.tri, s.tris.rest_inv, s.tris.rest_area, membrane_params(s.material)) +
+             bending_energy(s.verts.x, stencils);
+  for (int32_t i = 0; i < s.verts.size(); ++i)
+    e += s.verts.mass[i] * (0.5 * s.verts.v[i].squaredNorm() - gravity.dot(s.verts.x[i]));
+  return e;
+}
+
+ImplicitParams params_with(std::vector<Obstacle> obstacles, const Sheet& s) {
+  ImplicitParams p;
+  p.obstacles = std::move(obstacles);
+  p.contact_offset = 0.5 * s.material.thickness;
+  return p;
+}
+
+}  // namespace
+
+TEST(Contact, ATiltedDropNeverEndsASubstepBelowTheFloorAndComesToRest) {
+  Sheet s = test::grid_sheet(0.2, 0.2, 10, 10, 0.2, 5);
+  for (int32_t v = 0; v < s.verts.size(); ++v) s.verts.x[v].z() = 0.02 + 0.1 * s.verts.rest[v].x();  // one edge first
+  const Obstacle floor = plane(Vec3::Zero(), Vec3(0, 0, 1), 0.5);
+  const ImplicitParams p = params_with({floor}, s);
+  ImplicitSolverPtr solver;
+  for (int step = 0; step < 900; ++step) {  // 3 s
+    ASSERT_TRUE(implicit_substep(p, {}, {}, solver, s));
+    ASSERT_GE(lowest_distance(s, floor), 0) << "substep " << step;
+  }
+  EXPECT_GT(implicit_solver_stats(*solver).contacts, 0);
+  EXPECT_LT(max_speed(s), 1e-3) << "at rest on the floor";
+  EXPECT_LT(lowest_distance(s, floor), 1e-3) << "on it, not floating";
+}
+
+TEST(Contact, ASheetDrapedOverABoxNeverHasAVertexInsideIt) {
+  Sheet s = test::grid_sheet(0.2, 0.2, 12, 12, 0.2, 7);
+  for (Vec3& x : s.verts.x) x.z() = 0.03;
+  // A narrow box under the sheet's middle, on a floor: the sheet drapes over it and its sides reach the floor.
+  const Obstacle block = box(Vec3(0.08, -0.1, -0.05), Vec3(0.12, 0.3, 0.01), 0.3);
+  const Obstacle floor = plane(Vec3(0, 0, -0.05), Vec3(0, 0, 1), 0.5);
+  const ImplicitParams p = params_with({block, floor}, s);
+  ImplicitSolverPtr solver;
+  for (int step = 0; step < 600; ++step) {
+    ASSERT_TRUE(implicit_substep(p, {}, {}, solver, s));
+    ASSERT_GE(lowest_distance(s, block), 0) << "substep " << step;
+    ASSERT_GE(lowest_distance(s, floor), 0) << "substep " << step;
+  }
+  double top = -INFINITY;
+  for (const Vec3& x : s.verts.x) top = std::max(top, x.z());
+  EXPECT_GT(top, 0.01) << "held up by the box";
+  EXPECT_LT(top, 0.015) << "bulging a little beside its edges, not flung";
+  EXPECT_LT(max_speed(s), 1e-3) << "at rest";
+}
+
+TEST(Contact, ASheetRestingOnATableKeepsItsEnergy) {
+  Sheet s = test::grid_sheet(0.2, 0.2, 10, 10, 0.2, 3);
+  const Obstacle table = plane(Vec3::Zero(), Vec3(0, 0, 1), 0.5);
+  for (Vec3& x : s.verts.x) x.z() = 0.5 * s.material.thickness;
+  const ImplicitParams p = params_with({table}, s);
+  ImplicitSolverPtr solver;
+  const double start = total_energy(s, p.gravity);
+  for (int step = 0; step < 300; ++step) {
+    ASSERT_TRUE(implicit_substep(p, {}, {}, solver, s));
+    ASSERT_LE(total_energy(s, p.gravity), start + 1e-12) << "substep " << step;
+    ASSERT_GE(lowest_distance(s, table), 0);
+  }
+  EXPECT_LT(max_speed(s), 1e-9);
+}
+
+namespace {
+// A sheet lying on a slope of angle θ (normal (−sin θ, 0, cos θ)), friction μ, for `seconds`: how far its
+// centroid moved.
+double slope_slide(double theta, double mu, double seconds) {
+  Sheet s = test::grid_sheet(0.1, 0.1, 6, 6, 0.2, 2);
+  const Vec3 n(-std::sin(theta), 0, std::cos(theta)), along(std::cos(theta), 0, std::sin(theta));
+  for (int32_t v = 0; v < s.verts.size(); ++v)
+    s.verts.x[v] = s.verts.rest[v].x() * along + Vec3(0, s.verts.rest[v].y(), 0) + 0.5 * s.material.thickness * n;
+  const Obstacle slope = plane(Vec3::Zero(), n, mu);
+  const ImplicitParams p = params_with({slope}, s);
+  ImplicitSolverPtr solver;
+  const Vec3 start = centroid(s);
+  const int steps = static_cast<int>(std::lround(seconds / p.dt));
+  for (int step = 0; step < steps; ++step) {
+    EXPECT_TRUE(implicit_substep(p, {}, {}, solver, s));
+    EXPECT_GE(lowest_distance(s, slope), 0);
+  }
+  return (centroid(s) - start).norm();
+}
+}  // namespace
+
+TEST(Contact, FrictionAboveTheSlopesTangentHoldsTheSheet) {
+  const double theta = 20 * M_PI / 180;
+  EXPECT_LT(slope_slide(theta, 1.2 * std::tan(theta), 1.0), 1e-9);
+}
+
+TEST(Contact, FrictionBelowTheSlopesTangentLetsItSlideAsCoulombSays) {
+  // Rigid sliding with mass damping α: dv/dt = g (sin θ − μ cos θ) − α v, so from rest
+  // s(t) = (a/α) (t − (1 − e^{−αt})/α).
+  const double theta = 20 * M_PI / 180, mu = 0.8 * std::tan(theta), t = 1.0, alpha = ImplicitParams{}.mass_damping;
+  const double a = 9.81 * (std::sin(theta) - mu * std::cos(theta));
+  const double expected = a / alpha * (t - (1 - std::exp(-alpha * t)) / alpha);
+  const double moved = slope_slide(theta, mu, t);
+  EXPECT_NEAR(moved, expected, 0.02 * expected) << "expected " << expected;
+}
+
+TEST(Contact, WithoutObstaclesTheStepIsUnchanged) {
+  Sheet a = test::grid_sheet(0.2, 0.2, 8, 8, 0.2, 3), b = a;
+  ImplicitParams plain;
+  ImplicitParams far = params_with({plane(Vec3(0, 0, -100), Vec3(0, 0, 1), 0.5)}, a);
+  ImplicitSolverPtr sa, sb;
+  for (int step = 0; step < 30; ++step) {
+    ASSERT_TRUE(implicit_substep(plain, {}, {}, sa, a));
+    ASSERT_TRUE(implicit_substep(far, {}, {}, sb, b));
+  }
+  EXPECT_EQ(hash_sheet(a), hash_sheet(b)) << "an obstacle never touched changes nothing";
+}
+
+// ---- scenarios ------------------------------------------------------------------------------------------
+
+TEST(ContactScenario, PiecesOnTheFloorComeToRestAboveItAtOneAndTwoThreads) {
+  const Scenario sc = load_scenario(std::string(PT_SOURCE_DIR) + "/scenarios/pieces-on-floor.json");
+  ASSERT_FALSE(sc.obstacles.empty());
+  std::string hashes[2];
+  for (int threads : {1, 2}) {
+    EngineOptions o;
+    o.threads = threads;
+    Simulation sim(sc, o);
+    for (int f = 0; f < sc.sim.frames; ++f) {
+      sim.step();
+      for (const Obstacle& ob : sc.obstacles)
+        if (ob.kind == Obstacle::Kind::Plane) {
+          ASSERT_GE(lowest_distance(sim.sheet(), ob), 0) << "frame " << f;
+        }
+    }
+    hashes[threads - 1] = sim.state_hash();
+    if (threads == 2) {
+      EXPECT_LT(max_speed(sim.sheet()), 0.02) << "at rest";
+      EXPECT_GE(sim.sheet().topo.piece_count, 2) << "torn in two";
+    }
+  }
+  EXPECT_EQ(hashes[0], hashes[1]);
+}
+
+// ---- validation -----------------------------------------------------------------------------------------
+
+namespace {
+std::string refusal(const std::string& obstacles, const std::string& sim = "") {
+  const std::string text = R"({"sheet": {"preset": "A5", "triangles": 60}, "fingers": [{"name": "a", "at": [0.05, 0.05]}],)" +
+                           (sim.empty() ? std::string() : "\"sim\": " + sim + ",") + "\"obstacles\": " + obstacles + "}";
+  try {
+    parse_scenario(text, "obst.json");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(accepted)";
+}
+void expect_refused(const std::string& obstacles, const std::string& path, const std::string& words,
+                    const std::string& sim = "") {
+  const std::string message = refusal(obstacles, sim);
+  EXPECT_EQ(message.rfind("obst.json: " + path + ":", 0), 0u) << message;
+  EXPECT_NE(message.find(words), std::string::npos) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+}
+}  // namespace
+
+TEST(ContactValidation, GoodObstaclesAreAccepted) {
+  EXPECT_EQ(refusal(R"([{"type": "plane", "point": [0, 0, -0.1], "normal": [0, 0, 2], "friction": 0.4},
+                        {"type": "box", "min": [0, 0, -0.2], "max": [0.1, 0.1, -0.1]}])"),
+            "(accepted)");
+}
+
+TEST(ContactValidation, EachBadValueIsOneLineWithItsPath) {
+  expect_refused(R"({"type": "plane"})", "obstacles", "expected an array");
+  expect_refused(R"([{"point": [0, 0, 0], "normal": [0, 0, 1]}])", "obstacles[0]", "missing type");
+  expect_refused(R"([{"type": "cone"}])", "obstacles[0].type", "unknown obstacle type");
+  expect_refused(R"([{"type": "plane", "normal": [0, 0, 1]}])", "obstacles[0]", "missing point");
+  expect_refused(R"([{"type": "plane", "point": [0, 0, 0]}])", "obstacles[0]", "missing normal");
+  expect_refused(R"([{"type": "plane", "point": [0, 0, -1], "normal": [0, 0, 0]}])", "obstacles[0].normal", "non-zero");
+  expect_refused(R"([{"type": "plane", "point": [0, 0, -1], "normal": [0, 1]}])", "obstacles[0].normal", "3 numbers");
+  expect_refused(R"([{"type": "plane", "point": [0, 0, -1], "normal": [0, 0, 1], "min": [0, 0, 0]}])",
+                 "obstacles[0].min", "unknown key");
+  expect_refused(R"([{"type": "plane", "point": [0, 0, -1], "normal": [0, 0, 1], "friction": -0.1}])",
+                 "obstacles[0].friction", "must not be negative");
+  expect_refused(R"([{"type": "plane", "point": [0, 0, -1], "normal": [0, 0, 1], "friction": 1e9}])",
+                 "obstacles[0].friction", "absurd friction");
+  expect_refused(R"([{"type": "plane", "point": [0, 0, 1e9], "normal": [0, 0, 1]}])", "obstacles[0].point[2]",
+                 "absurd coordinate");
+  expect_refused(R"([{"type": "box", "min": [0, 0, -1], "max": [1, 0, -0.5]}])", "obstacles[0].max[1]", "must exceed min[1]");
+  expect_refused(R"([{"type": "box", "min": [0, 0, -1], "max": [1, 1, -2]}])", "obstacles[0].max[2]", "must exceed min[2]");
+  expect_refused(R"([{"type": "box", "max": [1, 1, 1]}])", "obstacles[0]", "missing min");
+  expect_refused(R"([{"type": "box", "min": [0, 0, -1], "max": [1, 1, -0.5], "normal": [0, 0, 1]}])",
+                 "obstacles[0].normal", "unknown key");
+}
+
+TEST(ContactValidation, ASheetThatStartsInsideAnObstacleIsRefused) {
+  // The sheet lies in z = 0 over the A5 rectangle [0, 0.148] x [0, 0.21].
+  expect_refused(R"([{"type": "plane", "point": [0, 0, 0.01], "normal": [0, 0, 1]}])", "obstacles[0]", "starts below");
+  expect_refused(R"([{"type": "plane", "point": [0.1, 0, 0], "normal": [-1, 0, 0.1]}])", "obstacles[0]", "starts below");
+  expect_refused(R"([{"type": "box", "min": [0.05, 0.05, -0.01], "max": [0.06, 0.06, 0.01]}])", "obstacles[0]",
+                 "starts inside this box");  // wholly under the sheet
+  expect_refused(R"([{"type": "box", "min": [-1, 0.1, -0.01], "max": [1, 0.11, 0.01]}])", "obstacles[0]",
+                 "starts inside this box");  // a bar across it, no corner inside
+  EXPECT_EQ(refusal(R"([{"type": "box", "min": [0.2, 0, -0.01], "max": [0.3, 0.1, 0.01]}])"), "(accepted)")
+      << "beside the sheet";
+  EXPECT_EQ(refusal(R"([{"type": "box", "min": [0, 0, -0.01], "max": [0.1, 0.1, 0]}])"), "(accepted)")
+      << "the sheet lying on its top";
+}
