@@ -1,6 +1,7 @@
 // papertear-self-intersections SCENARIO [--frames N] [--every K]: runs a scenario and prints, every K
 // frames, how many pairs of non-adjacent triangles intersect (systems/mesh/self_intersection.hpp), the
-// measure of the sheet's self-contact (issue 25) before any self-contact handling exists.
+// measure of the sheet's self-contact (issue 25; systems/physics/self_contact.hpp handles it when the scenario
+// turns sim.self_contact on).
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "systems/mesh/self_intersection.hpp"

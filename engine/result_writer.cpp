@@ -314,6 +314,10 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::
   // The work of the implicit integrator: symbolic analyses
   // (after cuts or a change of the held set), numeric factorisations, spin-brake redos, solves that needed a
   // diagonal shift, and rejected substeps.
+  if (const SelfContactStats* c = self_contact_stats(sim))
+    result["self_contact"] = ojson{{"proximities", c->proximities}, {"repulsions", c->repulsions},
+                                   {"collisions", c->collisions},   {"zones", c->zones},
+                                   {"unresolved", c->unresolved},   {"ms", num(c->ms)}};
   const ImplicitStats solver = solver_stats(sim);
   result["solver"] = ojson{{"analyses", solver.analyses},
                            {"factorizations", solver.factorizations},

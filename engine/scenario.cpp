@@ -37,6 +37,7 @@ constexpr double kMaxKeyTime = 1e7;        // s
 constexpr double kMaxGrip = 1e4;           // N
 constexpr int32_t kMaxObstacles = 1'000;    // each is a pass over the vertices per substep
 constexpr double kMaxFriction = 100;        // Coulomb μ (rubber on rubber is ~1–2)
+constexpr double kMaxSelfContactGap = 0.01; // m: a gap wider than a mesh's edges would push neighbours apart
 constexpr int64_t kMaxFileBytes = 64ll << 20;
 // What a sheet can physically be (README, "Scenario format"). Beyond these the implicit solver refuses
 // every substep (the sheet stands still) or the state overflows: no result, so the input is refused.
@@ -303,7 +304,8 @@ void read_sim(const Reader& r, const json& j, SimSettings& sim) {
   const std::string path = "sim";
   r.expect_object(j, path);
   r.check_keys(j, path,
-               {"fps", "substeps", "frames", "gravity", "iterations", "solver", "relaxation", "relaxation_radius"});
+               {"fps", "substeps", "frames", "gravity", "iterations", "solver", "relaxation", "relaxation_radius",
+                "self_contact"});
   if (j.contains("fps")) sim.fps = r.number(j["fps"], child(path, "fps"));
   if (j.contains("substeps"))
     sim.substeps = static_cast<int32_t>(r.integer(j["substeps"], child(path, "substeps"), 1, kMaxSubsteps));
@@ -316,6 +318,21 @@ void read_sim(const Reader& r, const json& j, SimSettings& sim) {
   if (j.contains("relaxation")) sim.relaxation = r.string(j["relaxation"], child(path, "relaxation"));
   if (j.contains("relaxation_radius"))
     sim.relaxation_radius = r.number(j["relaxation_radius"], child(path, "relaxation_radius"));
+  if (j.contains("self_contact")) {
+    // true (the defaults), false (off), or {"gap", "friction"} (on).
+    const std::string p = child(path, "self_contact");
+    const json& c = j["self_contact"];
+    if (c.is_boolean()) {
+      sim.self_contact.on = c.get<bool>();
+    } else {
+      if (!c.is_object())
+        fail(r.file, p, std::string("expected an object {\"gap\", \"friction\"} or a boolean, got ") + type_name(c));
+      r.check_keys(c, p, {"gap", "friction"});
+      sim.self_contact.on = true;
+      if (c.contains("gap")) sim.self_contact.gap = r.number(c["gap"], child(p, "gap"));
+      if (c.contains("friction")) sim.self_contact.friction = r.number(c["friction"], child(p, "friction"));
+    }
+  }
 }
 
 void read_tearing(const Reader& r, const json& j, TearingSettings& t) {
@@ -727,6 +744,11 @@ void validate_sim(const Scenario& s) {
   if (s.sim.relaxation_radius > kMaxCoordinate)
     fail(file, "sim.relaxation_radius",
          "absurd size " + fmt(s.sim.relaxation_radius) + " (at most " + fmt(kMaxCoordinate) + ")");
+  check_positive(file, "sim.self_contact.gap", s.sim.self_contact.gap);
+  if (s.sim.self_contact.gap > kMaxSelfContactGap)
+    fail(file, "sim.self_contact.gap",
+         "absurd size " + fmt(s.sim.self_contact.gap) + " (at most " + fmt(kMaxSelfContactGap) + " m)");
+  check_range(file, "sim.self_contact.friction", s.sim.self_contact.friction, 0, kMaxFriction, false);
 }
 
 void validate_tearing(const Scenario& s) {

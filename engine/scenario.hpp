@@ -40,6 +40,14 @@ struct TearingSettings {
   }
 };
 
+// "sim": {"self_contact": {...}}: the sheet and its pieces do not pass through themselves or each other
+// (systems/physics/self_contact.hpp, docs/scenario-format.md "Self-contact"). Off unless the key is given.
+struct SelfContactSettings {
+  bool on = false;
+  double gap = 3e-4;     // m: pairs closer than this repel (three thicknesses of office paper)
+  double friction = 0.3; // Coulomb μ, paper on paper
+};
+
 struct SimSettings {
   double fps = 30;
   int32_t substeps = 10;
@@ -56,6 +64,7 @@ struct SimSettings {
   // then treats the other candidates as "substep" does.
   std::string relaxation = "substep";
   double relaxation_radius = 0.03;  // m, pattern: the patch of "patch"
+  SelfContactSettings self_contact;
 };
 
 struct FingerSpec {

@@ -10,10 +10,12 @@
 #include "systems/tearing/candidates.hpp"
 #include "systems/carving/carving.hpp"
 #include "systems/physics/fingers.hpp"
+#include "systems/physics/contact.hpp"
 #include "systems/physics/grip.hpp"
 #include "systems/physics/integrate_implicit.hpp"
 #include "systems/physics/local_relaxation.hpp"
 #include "systems/physics/membrane_forces.hpp"
+#include "systems/physics/self_contact.hpp"
 #include "systems/tearing/regions.hpp"
 #include "systems/common/scoped_timer.hpp"
 #include "systems/common/topology.hpp"
@@ -116,6 +118,13 @@ struct Simulation::Impl {
   enum class Relaxation { Substep, NextFrame, Patch } relaxation = Relaxation::Substep;
   LocalRelaxationParams local_relaxation;
   LocalRelaxationScratch local_scratch;
+  // "sim": {"self_contact": ...}: Bridson's pass after each substep (systems/physics/self_contact.hpp).
+  SelfContactParams self_contact;
+  SelfContactBroadPhasePtr self_contact_broad;
+  SelfContactStats self_contact_stats;   // summed over the run
+  std::vector<Vec3> self_contact_start;  // x the substep started from
+  std::vector<double> self_contact_inverse_mass;
+  std::function<void(const Sheet&)> substep_observer;  // tests: called after each substep
   int64_t patch_failures = 0;  // patch relaxations the implicit step refused (reported with the solver's)
   TearingScratch tearing_scratch;
 
@@ -178,6 +187,9 @@ struct Simulation::Impl {
     for (Obstacle& o : implicit_params.obstacles)
       if (o.kind == Obstacle::Kind::Plane) o.normal = (o.normal / o.normal.cwiseAbs().maxCoeff()).normalized();
     implicit_params.contact_offset = 0.5 * m.thickness;
+    self_contact.gap = scenario.sim.self_contact.gap;
+    self_contact.friction = scenario.sim.self_contact.friction;
+    self_contact.dt = implicit_params.dt;
     membrane = membrane_params(m);
     take_propagation_params(m);
     tear_direction_from_name(scenario.tearing.direction, tearing_params.direction);  // validated
@@ -287,11 +299,43 @@ struct Simulation::Impl {
     slipping_pinches(sheet.verts, sheet.fingers, hold_points, kPinchStiffness, implicit_params.springs);
     // verts.force now holds the internal forces of the state this substep started from: the fingers'
     // reactions during it.
+    if (scenario.sim.self_contact.on) self_contact_start = sheet.verts.x;
     if (!implicit_substep(implicit_params, held, target, implicit, sheet)) return;
+    if (scenario.sim.self_contact.on) resolve_substep_self_contact(held);
+    if (substep_observer) substep_observer(sheet);
     if (reactions == Reactions::Grip)
       check_grip(sheet.verts, scenario.sim.gravity, sheet.fingers);
     else if (reactions == Reactions::Read)
       read_reactions(sheet.verts, scenario.sim.gravity, sheet.fingers);
+  }
+
+  // The substep's motion from self_contact_start to x made free of self-intersections (held vertices keep
+  // their prescribed paths). Positions and velocities only: verts.force and the corner forces, which the
+  // tearing criteria and the fingers' reactions read, are the implicit step's.
+  void resolve_substep_self_contact(const std::vector<int32_t>& held) {
+    const Vertices& V = sheet.verts;
+    self_contact_inverse_mass.resize(V.mass.size());
+    for (size_t i = 0; i < V.mass.size(); ++i) self_contact_inverse_mass[i] = V.mass[i] > 0 ? 1 / V.mass[i] : 0;
+    for (int32_t h : held) self_contact_inverse_mass[h] = 0;
+    // A vertex resting on an obstacle (within a twentieth of the gap of its grown surface; a layer lying on
+    // it is a gap higher) is as immovable as the obstacle: an impulse pushing it into a table would leave
+    // it inside until the next solve, which then throws the layers apart (measured: fold-half's bottom
+    // layer bounced at up to 6 m/s and the fold tore).
+    for (const Obstacle& o : implicit_params.obstacles)
+      for (size_t i = 0; i < V.x.size(); ++i)
+        if (obstacle_distance(o, V.x[i]) < implicit_params.contact_offset + 0.05 * self_contact.gap)
+          self_contact_inverse_mass[i] = 0;
+    const SelfContactStats s =
+        resolve_self_contact(self_contact, sheet.tris.tri, V.rest, self_contact_start, self_contact_inverse_mass,
+                             self_contact_broad, sheet.verts.x, sheet.verts.v);
+    SelfContactStats& t = self_contact_stats;
+    t.candidates += s.candidates;
+    t.proximities += s.proximities;
+    t.repulsions += s.repulsions;
+    t.collisions += s.collisions;
+    t.zones += s.zones;
+    t.unresolved += s.unresolved;
+    t.ms += s.ms;
   }
 
   // Quasi-static tearing at the substeps' pace: the frame's physics stops at the first substep after which
@@ -733,5 +777,12 @@ ImplicitStats solver_stats(const Simulation& sim) {
   return stats;
 }
 Sheet& mutable_sheet(Simulation& sim) { return SimulationInternals::of(sim).sheet; }
+const SelfContactStats* self_contact_stats(const Simulation& sim) {
+  const auto& m = SimulationInternals::of(sim);
+  return m.scenario.sim.self_contact.on ? &m.self_contact_stats : nullptr;
+}
+void set_substep_observer(Simulation& sim, std::function<void(const Sheet&)> observer) {
+  SimulationInternals::of(sim).substep_observer = std::move(observer);
+}
 
 }  // namespace pt

@@ -9,6 +9,9 @@
 #include "systems/carving/carving.hpp"
 #include "systems/tearing/fiber_field.hpp"
 #include "systems/physics/integrate_implicit.hpp"
+#include "systems/physics/self_contact.hpp"
+
+#include <functional>
 
 #include <vector>
 
@@ -25,5 +28,10 @@ ImplicitStats solver_stats(const Simulation& sim);
 // For tools that move fingers or change the material by hand; call sim.notify_topology_changed() after
 // edits of the mesh.
 Sheet& mutable_sheet(Simulation& sim);
+// The self-contact pass's counts so far, or null when the scenario has it off.
+const SelfContactStats* self_contact_stats(const Simulation& sim);
+// Called with the sheet after every substep of the frames' physics and the relaxations after cuts (tests:
+// the state every substep reaches).
+void set_substep_observer(Simulation& sim, std::function<void(const Sheet&)> observer);
 
 }  // namespace pt

@@ -61,6 +61,8 @@ json scenario_document(const pt::Scenario& s) {
                 {"solver", s.sim.solver},
                 {"relaxation", s.sim.relaxation},
                 {"relaxation_radius", s.sim.relaxation_radius}};
+  if (s.sim.self_contact.on)
+    doc["sim"]["self_contact"] = {{"gap", s.sim.self_contact.gap}, {"friction", s.sim.self_contact.friction}};
   doc["tearing"] = {{"direction", s.tearing.direction}, {"radius", s.tearing.radius}};
   if (s.tearing.snap) doc["tearing"]["snap"] = *s.tearing.snap;
   json fingers = json::array();
@@ -453,6 +455,14 @@ void bind_scenario(py::module_& m) {
            "sim.relaxation: \"substep\", \"next_frame\" or \"patch\".");
   property(c, "relaxation_radius", "sim.relaxation_radius", [](const pt::Scenario& s) { return s.sim.relaxation_radius; },
            "sim.relaxation_radius, m");
+  c.def_property(
+      "self_contact",
+      [](const pt::Scenario& s) -> py::object {
+        if (!s.sim.self_contact.on) return py::bool_(false);
+        return python_from_json(scenario_document(s)["sim"]["self_contact"]);
+      },
+      [](pt::Scenario& s, py::handle v) { set_value(s, "sim.self_contact", v); },
+      "sim.self_contact: False (off), True (the defaults) or {\"gap\": m, \"friction\": mu}; reads False or the settings.");
   c.def_property_readonly(
       "fingers", [](const pt::Scenario& s) { return python_from_json(scenario_document(s)["fingers"]); },
       "The fingers as the file has them: name, at, keys, attach, release (absent: never), grip.");

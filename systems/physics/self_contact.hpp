@@ -1,0 +1,91 @@
+// Contact of the sheet with itself and between its torn pieces, after each implicit substep (issue 25;
+// docs/physics.md, "Self-contact").
+//
+// Method: Bridson, Fedkiw & Anderson 2002 ("Robust treatment of collisions, contact and friction for cloth
+// animation"), applied to the substep's motion x0 → x1 (the implicit step's start and end):
+//   1. proximity (their "Proximity detection" and "Repulsions"): vertex–triangle and edge–edge pairs closer
+//      than `gap` at x0 that approach over the step get an inelastic impulse plus a repulsion that opens the
+//      pair by a tenth of its overlap per step, with Coulomb friction ("Friction");
+//   2. continuous collision detection ("Collision detection"): the pairs become coplanar at the roots of a
+//      cubic in t ∈ [0, 1] along the straight paths x0 + t (x1 − x0); a root where the pair is closer than
+//      `ccd_tolerance` (and than it started) is a collision, stopped by an impulse that leaves the pair
+//      `0.1 gap` apart along its normal. Up to `ccd_passes` passes, each over the pairs of the current paths;
+//   3. rigid impact zones ("Rigid impact zones", after Provot 1997) as the fail-safe: the vertices of the
+//      pairs still colliding are merged into zones that move rigidly (the zone's momentum and angular
+//      momentum), zones grown until no collision is left; a zone that still collides then only translates,
+//      which keeps its own pairs as they were at x0.
+// x0 must be free of intersections (a sheet starts flat); then x1 is too, as far as the zones converge
+// (SelfContactStats::unresolved counts what is left).
+// Why after the step and not in it: the implicit step is linear and solved once; Bridson's pass changes only
+// positions and velocities, so the membrane forces the tearing criteria read (Triangles::corner_force,
+// Vertices::force) carry no contact force, and the fingers' reactions carry none either.
+// Excluded pairs: a vertex and a triangle it is a corner of, edges that share a vertex, and pairs with a
+// corner that is the same pattern point (Vertices::rest) or the same 3D point at x0 as one of the other's:
+// the two lips of a tear are duplicated vertices, coincident at its tip (as in systems/self_intersection.hpp).
+// Held vertices (fingers; the engine adds vertices resting on an obstacle) have infinite mass: their paths
+// are prescribed. An impulse whose free points carry almost none of the pair's weight is not applied (it
+// would fling them); the passes and zones deal with that pair.
+// Known gap (docs/physics.md, "Self-contact"): on a sheet folded onto itself these impulses after the solve
+// stretch the stiff membrane until it tears, so no scenario turns the pass on yet.
+// Broad phase: Embree's rtcCollide over the triangles' boxes swept over the step and grown by the gap; the
+// pairs it reports are sorted, and the impulses applied in that order on one thread, so the result is the
+// same at any thread count.
+#pragma once
+
+#include "components/sheet.hpp"
+
+#include <memory>
+#include <vector>
+
+namespace pt {
+
+struct SelfContactParams {
+  double gap = 3e-4;          // m: pairs closer than this repel (a few thicknesses of paper)
+  double friction = 0.3;      // Coulomb μ between two sheets of paper
+  double dt = 1.0 / 300;      // s, the substep
+  double ccd_tolerance = 0;   // m: a coplanar pair closer than this collides; 0: gap / 100
+  int32_t ccd_passes = 4;     // collision passes before the impact zones
+  int32_t zone_passes = 16;   // impact-zone rounds (rigid, then translation)
+};
+
+struct SelfContactStats {
+  int64_t candidates = 0;   // triangle pairs the broad phase reported (all passes)
+  int64_t proximities = 0;  // vertex–triangle and edge–edge pairs within the gap at x0
+  int64_t repulsions = 0;   // of those, pairs an impulse was applied to
+  int64_t collisions = 0;   // pairs the CCD passes stopped
+  int64_t zones = 0;        // impact zones made rigid
+  int64_t unresolved = 0;   // pairs still colliding after the last zone round
+  double ms = 0;            // wall time
+};
+
+// Embree's device and scene, kept between substeps.
+struct SelfContactBroadPhase;
+struct SelfContactBroadPhaseDeleter {
+  void operator()(SelfContactBroadPhase*) const;
+};
+using SelfContactBroadPhasePtr = std::unique_ptr<SelfContactBroadPhase, SelfContactBroadPhaseDeleter>;
+
+// The triangle pairs (s < t, ascending) whose boxes over the paths x0 → x1 grown by `margin` overlap
+// (Embree's rtcCollide, then the exact double-precision box test). Pairs that share a vertex are included:
+// the element pairs are excluded one by one.
+void self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec3>& x0, const std::vector<Vec3>& x1,
+                             double margin, SelfContactBroadPhasePtr& broad,
+                             std::vector<std::array<int32_t, 2>>& pairs);
+
+// The first time t ∈ [0, 1] at which point p meets triangle (a, b, c), all moving linearly from their `0`
+// to their `1` positions, within `tolerance`; false when they do not meet. Exposed for the tests.
+bool vertex_triangle_ccd(const Vec3& p0, const Vec3& a0, const Vec3& b0, const Vec3& c0, const Vec3& p1,
+                         const Vec3& a1, const Vec3& b1, const Vec3& c1, double tolerance, double& t);
+// The same for edges (a, b) and (c, d).
+bool edge_edge_ccd(const Vec3& a0, const Vec3& b0, const Vec3& c0, const Vec3& d0, const Vec3& a1, const Vec3& b1,
+                   const Vec3& c1, const Vec3& d1, double tolerance, double& t);
+
+// One substep's self-contact: `x0` the positions the substep started from, `inverse_mass` per vertex (0 for
+// held vertices), `rest` the pattern positions (twins of a tear), `tris` the triangles; `x` and `v` the
+// substep's result, changed in place (an impulse changes v by Δv and x by dt Δv).
+SelfContactStats resolve_self_contact(const SelfContactParams& params, const std::vector<Tri>& tris,
+                                      const std::vector<Vec2>& rest, const std::vector<Vec3>& x0,
+                                      const std::vector<double>& inverse_mass, SelfContactBroadPhasePtr& broad,
+                                      std::vector<Vec3>& x, std::vector<Vec3>& v);
+
+}  // namespace pt
