@@ -325,17 +325,9 @@ struct Simulation::Impl {
       for (size_t i = 0; i < V.x.size(); ++i)
         if (obstacle_distance(o, V.x[i]) < implicit_params.contact_offset + 0.05 * self_contact.gap)
           self_contact_inverse_mass[i] = 0;
-    const SelfContactStats s =
+    self_contact_stats +=
         resolve_self_contact(self_contact, sheet.tris.tri, V.rest, self_contact_start, self_contact_inverse_mass,
                              self_contact_broad, sheet.verts.x, sheet.verts.v);
-    SelfContactStats& t = self_contact_stats;
-    t.candidates += s.candidates;
-    t.proximities += s.proximities;
-    t.repulsions += s.repulsions;
-    t.collisions += s.collisions;
-    t.zones += s.zones;
-    t.unresolved += s.unresolved;
-    t.ms += s.ms;
   }
 
   // Quasi-static tearing at the substeps' pace: the frame's physics stops at the first substep after which

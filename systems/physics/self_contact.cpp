@@ -19,9 +19,16 @@ namespace pt {
 
 // ---- broad phase (Embree) ----------------------------------------------------------------------------
 
+namespace {
+struct Box {
+  Vec3 lo, hi;
+};
+}  // namespace
+
 struct SelfContactBroadPhase {
   RTCDevice device = nullptr;
   std::vector<RTCBounds> boxes;  // float, rounded outwards from the double boxes
+  std::vector<Box> exact;        // the double boxes, for the exact test after Embree's
   std::mutex mutex;              // rtcCollide calls back from its worker threads
   std::vector<std::array<int32_t, 2>> found;
   ~SelfContactBroadPhase() {
@@ -49,10 +56,6 @@ void collect_pairs(void* user, RTCCollision* collisions, unsigned int count) {
 
 float down(double v) { return std::nextafter(static_cast<float>(v), -std::numeric_limits<float>::infinity()); }
 float up(double v) { return std::nextafter(static_cast<float>(v), std::numeric_limits<float>::infinity()); }
-
-struct Box {
-  Vec3 lo, hi;
-};
 
 Box path_box(const Tri& t, const std::vector<Vec3>& x0, const std::vector<Vec3>& x1, double margin) {
   Box b{x0[t[0]], x0[t[0]]};
@@ -82,7 +85,8 @@ void self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec
     if (!broad->device) throw std::runtime_error("self-contact: Embree device refused");
   }
   SelfContactBroadPhase& b = *broad;
-  std::vector<Box> boxes(tris.size());
+  std::vector<Box>& boxes = b.exact;  // kept between calls: one allocation per sheet size, not per substep
+  boxes.resize(tris.size());
   b.boxes.resize(tris.size());
   for (size_t t = 0; t < tris.size(); ++t) {
     boxes[t] = path_box(tris[t], x0, x1, margin);

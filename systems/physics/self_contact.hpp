@@ -56,6 +56,16 @@ struct SelfContactStats {
   int64_t zones = 0;        // impact zones made rigid
   int64_t unresolved = 0;   // pairs still colliding after the last zone round
   double ms = 0;            // wall time
+  SelfContactStats& operator+=(const SelfContactStats& o) {
+    candidates += o.candidates;
+    proximities += o.proximities;
+    repulsions += o.repulsions;
+    collisions += o.collisions;
+    zones += o.zones;
+    unresolved += o.unresolved;
+    ms += o.ms;
+    return *this;
+  }
 };
 
 // Embree's device and scene, kept between substeps.

@@ -3,6 +3,7 @@
 // counts.
 #include "systems/physics/self_contact.hpp"
 #include "systems/mesh/self_intersection.hpp"
+#include "tests/test_meshes.hpp"
 
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
@@ -45,7 +46,8 @@ TEST(SelfContactCcd, EdgesCrossAtTheAnalyticTime) {
                              Vec3(1, 2, -2), Vec3(0, -1, 1), Vec3(0, 1, 1), 1e-9, t));
 }
 
-// Two jittered grids of n × n cells over 10 cm, one at z = 0 and one `height` above it, tilted a little.
+// Two jittered grids of n × n cells over 10 cm (tests/test_meshes.hpp's grid_sheet), one at z = 0 and one
+// `height` above it, tilted a little.
 struct TwoSheets {
   std::vector<Vec3> x, v;
   std::vector<Vec2> rest;
@@ -58,26 +60,19 @@ TwoSheets two_sheets(int n, double height, double tilt, uint32_t seed) {
   TwoSheets s;
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-0.3, 0.3);
-  const double size = 0.1, cell = size / n;
+  const double size = 0.1;
   for (int sheet = 0; sheet < 2; ++sheet) {
+    const Sheet grid = test::grid_sheet(size, size, n, n, 0.6, seed + sheet);
     const auto first = static_cast<int32_t>(s.x.size());
     if (sheet == 1) s.upper_first = first;
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) {
-        Vec2 p(cell * i, cell * j);
-        if (i > 0 && i < n && j > 0 && j < n) p += cell * Vec2(u(rng), u(rng));
-        // Different pattern points: the two sheets are not twins of a tear.
-        s.rest.push_back(p + Vec2(sheet * 2 * size, 0));
-        s.x.push_back(sheet == 0 ? Vec3(p.x(), p.y(), 0) : Vec3(p.x(), p.y(), height + tilt * (p.x() - size / 2)));
-        s.v.push_back(Vec3::Zero());
-        s.inverse_mass.push_back(1 / (1e-3 * (1 + 0.1 * u(rng))));
-      }
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const int32_t a = first + j * (n + 1) + i, b = a + 1, c = a + n + 2, d = a + n + 1;
-        s.tris.push_back({a, b, c});
-        s.tris.push_back({a, c, d});
-      }
+    for (const Vec2& p : grid.verts.rest) {
+      // Different pattern points: the two sheets are not twins of a tear.
+      s.rest.push_back(p + Vec2(sheet * 2 * size, 0));
+      s.x.push_back(sheet == 0 ? Vec3(p.x(), p.y(), 0) : Vec3(p.x(), p.y(), height + tilt * (p.x() - size / 2)));
+      s.v.push_back(Vec3::Zero());
+      s.inverse_mass.push_back(1 / (1e-3 * (1 + 0.1 * u(rng))));
+    }
+    for (const Tri& t : grid.tris.tri) s.tris.push_back({first + t[0], first + t[1], first + t[2]});
   }
   return s;
 }
