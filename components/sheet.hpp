@@ -240,7 +240,7 @@ struct Hand {
   std::string name;
   std::vector<int32_t> fingers;
   std::vector<HandKey> keys;
-  Vec3 centroid = Vec3::Zero();  // of its fingers' initial positions
+  Vec3 centroid = Vec3::Zero();  // of where its fingers hold: their starts (hand_centroid_of_starts)
 };
 
 struct Sheet {

@@ -1,6 +1,7 @@
 #include "engine/sheet_builder.hpp"
 
 #include "systems/mesh/meshing.hpp"
+#include "systems/physics/fingers.hpp"
 #include "systems/common/topology.hpp"
 
 #include <algorithm>
@@ -66,16 +67,13 @@ Sheet build_sheet(const Scenario& scenario) {
     Hand h;
     h.name = spec.name;
     h.keys = spec.keys;
-    Vec3 c = Vec3::Zero();
     for (const std::string& name : spec.fingers)
       for (size_t i = 0; i < sheet.fingers.size(); ++i)
         if (sheet.fingers[i].name == name) {
           h.fingers.push_back(static_cast<int32_t>(i));
           sheet.fingers[i].hand = static_cast<int32_t>(sheet.hands.size());
-          c += sheet.fingers[i].start;
         }
-    if (!h.fingers.empty()) c /= static_cast<double>(h.fingers.size());
-    h.centroid = c;
+    hand_centroid_of_starts(sheet.fingers, h);
     sheet.hands.push_back(h);
   }
   refresh_after_topology_change(sheet);

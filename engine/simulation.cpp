@@ -262,6 +262,7 @@ struct Simulation::Impl {
         }
         f.start = sheet.verts.x[f.vertex];
         if (f.keys.empty()) f.target = f.start;  // hold the sheet where it was grabbed
+        if (f.hand >= 0) hand_centroid_of_starts(sheet.fingers, sheet.hands[f.hand]);
         changed = true;
       }
       if (f.vertex >= 0 && f.release_time <= t) {

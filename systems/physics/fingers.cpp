@@ -55,6 +55,13 @@ Vec3 apply_hand_motion(const Hand& hand, double t, const Vec3& q) {
   return hand.centroid + rotation * (q - hand.centroid) + translate;
 }
 
+void hand_centroid_of_starts(const std::vector<Finger>& fingers, Hand& hand) {
+  Vec3 c = Vec3::Zero();
+  for (int32_t i : hand.fingers) c += fingers[i].start;
+  if (!hand.fingers.empty()) c /= static_cast<double>(hand.fingers.size());
+  hand.centroid = c;
+}
+
 void update_finger_targets(double t, const std::vector<Hand>& hands, std::vector<Finger>& fingers) {
   for (Finger& f : fingers) {
     Vec3 p = finger_key_position(f, t);

@@ -210,3 +210,34 @@ TEST(Simulation, PatchRelaxationLeavesTheWholeSheetsSolverToTheFrames) {
   EXPECT_GT(sim.remesh_count(), 3);
   for (const std::string& v : sim.invariant_violations()) ADD_FAILURE() << v;
 }
+
+// A hand whose fingers are put on later (fingers[].attach) moves them from where they grab the sheet,
+// which by then hangs elsewhere than its pattern: its rotation turns them rigidly about the centroid of
+// the grabbed points (docs/scenario-format.md), not about that of their pattern points.
+TEST(Simulation, AHandPutOnLaterTurnsAboutWhereItGrabs) {
+  Scenario s = parse_scenario(R"({
+    "sheet": {"preset": "A6", "triangles": 120},
+    "sim": {"frames": 30, "fps": 30},
+    "fingers": [{"name": "A", "at": [0.05, 0.14]},
+                {"name": "C", "at": [0.03, 0.05], "attach": 0.5}, {"name": "D", "at": [0.07, 0.05], "attach": 0.5}],
+    "hands": [{"name": "lower", "fingers": ["C", "D"],
+               "keys": [[0.5, {"rotate_deg": 0, "axis": [0, 1, 0]}], [1.0, {"rotate_deg": 90, "axis": [0, 1, 0]}]]}]
+  })", "hand-put-on-later.json");
+  Simulation sim(s, one_thread());
+  for (int f = 0; f < 16; ++f) sim.step();  // the finger grabs at the frame starting at t = 0.5
+  const Sheet& sh = sim.sheet();
+  const Finger& c = sh.fingers[1];
+  const Finger& d = sh.fingers[2];
+  ASSERT_GE(c.vertex, 0);
+  ASSERT_GE(d.vertex, 0);
+  EXPECT_GT((c.start - Vec3(0.03, 0.05, 0)).norm(), 0.01) << "the sheet hangs: C grabs away from its pattern point";
+  const Vec3 centroid = 0.5 * (c.start + d.start);
+  EXPECT_NEAR((sh.hands[0].centroid - centroid).norm(), 0, 1e-15);
+  for (int f = 16; f < 30; ++f) sim.step();
+  // Turned by 90° about the grabbed centroid: the same distance apart and from it, the centroid in place.
+  EXPECT_NEAR((c.target - d.target).norm(), (c.start - d.start).norm(), 1e-12);
+  EXPECT_NEAR((0.5 * (c.target + d.target) - centroid).norm(), 0, 1e-12);
+  const Vec3 y(0, 1, 0), across = (c.start - centroid) - (c.start - centroid).dot(y) * y;
+  EXPECT_NEAR((c.target - centroid).dot(across), 0, 1e-12) << "a quarter turn about y";
+  EXPECT_NEAR((c.target - centroid).dot(y), (c.start - centroid).dot(y), 1e-12);
+}
