@@ -39,6 +39,11 @@ struct Material {
   // (1e-4 .. 5e-3) would carry tens of newtons where paper carries millinewtons.
   double membrane_scale = 0.03;
   double strain_limit = 0.02;
+  // Compression relief (docs/physics.md, "Membrane"): a compressed principal direction keeps
+  // compression_scale of its stiffness, as paper wrinkled finer than the mesh carries little compression,
+  // up to a principal strain of −compression_limit, beyond which it is as stiff as paper again. 1: off.
+  double compression_scale = 1;
+  double compression_limit = 0.05;
   double damping = 2.0;        // 1/s, mass-proportional velocity damping
   double tip_damage = 0.15;    // D of eq. 3, in [0,1]: a tip tears ~7x more easily than fresh paper
   uint64_t fiber_seed = 1;     // seed of T_fiber

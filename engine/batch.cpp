@@ -24,7 +24,7 @@ const std::vector<std::string>& variation_keys() {
       "material.thickness",  "material.density",      "material.young",        "material.poisson",
       "material.bending_scale", "material.tip_damage", "material.fracture_c",  "material.speed",
       "material.max_step",   "material.damping",      "material.fiber_scale",  "material.membrane_scale",
-      "material.strain_limit", "detail.sigma",         "detail.omega",          "sim.substeps",
+      "material.strain_limit", "material.compression_scale", "material.compression_limit", "detail.sigma",         "detail.omega",          "sim.substeps",
       "sim.iterations",      "sim.relaxation_radius", "tearing.radius",        "tearing.snap",
       "finger_speed"};
   return keys;
@@ -70,6 +70,8 @@ void apply_variation(const std::string& key, double value, Scenario& s) {
   else if (key == "material.fiber_scale") m.fiber_scale = value;
   else if (key == "material.membrane_scale") m.membrane_scale = value;
   else if (key == "material.strain_limit") m.strain_limit = value;
+  else if (key == "material.compression_scale") m.compression_scale = value;
+  else if (key == "material.compression_limit") m.compression_limit = value;
   else if (key == "detail.sigma") s.detail.sigma = value;
   else if (key == "detail.omega") s.detail.omega = value;
   else if (key == "sim.substeps") s.sim.substeps = std::max(1, static_cast<int32_t>(std::lround(value)));

@@ -270,13 +270,14 @@ void read_material(const Reader& r, const json& j, Material& m) {
   r.expect_object(j, path);
   r.check_keys(j, path, {"thickness", "density", "young", "poisson", "bending_scale", "tip_damage", "fiber_seed",
                          "fracture_c", "speed", "max_step", "damping", "fiber_scale", "fiber_floor", "min_step",
-                         "membrane_scale", "strain_limit"});
+                         "membrane_scale", "strain_limit", "compression_scale", "compression_limit"});
   const std::pair<const char*, double*> numbers[] = {
       {"thickness", &m.thickness},   {"density", &m.density},       {"young", &m.young},
       {"poisson", &m.poisson},       {"bending_scale", &m.bending_scale}, {"tip_damage", &m.tip_damage},
       {"fracture_c", &m.fracture_c}, {"speed", &m.speed},           {"max_step", &m.max_step},
       {"damping", &m.damping},       {"fiber_scale", &m.fiber_scale}, {"fiber_floor", &m.fiber_floor},
-      {"min_step", &m.min_step},     {"membrane_scale", &m.membrane_scale}, {"strain_limit", &m.strain_limit}};
+      {"min_step", &m.min_step},     {"membrane_scale", &m.membrane_scale}, {"strain_limit", &m.strain_limit},
+      {"compression_scale", &m.compression_scale}, {"compression_limit", &m.compression_limit}};
   for (const auto& [key, dst] : numbers)
     if (j.contains(key)) *dst = r.number(j[key], child(path, key));
   if (j.contains("fiber_seed")) m.fiber_seed = r.seed(j["fiber_seed"], child(path, "fiber_seed"));
@@ -704,6 +705,10 @@ void validate_material(const Scenario& s) {
   check_range(file, "material.membrane_scale", m.membrane_scale, 0, 1, false);
   if (!(m.membrane_scale > 0)) fail(file, "material.membrane_scale", "must be > 0 (a fraction of young, at most 1)");
   check_positive(file, "material.strain_limit", m.strain_limit);
+  check_range(file, "material.compression_scale", m.compression_scale, 0, 1, false);
+  if (!(m.compression_scale > 0))
+    fail(file, "material.compression_scale", "must be > 0 (a fraction of the compressive stiffness, at most 1)");
+  check_positive(file, "material.compression_limit", m.compression_limit);
   check_non_negative(file, "material.damping", m.damping);
   check_range(file, "material.tip_damage", m.tip_damage, 0, 1, false);
   check_positive(file, "material.fiber_scale", m.fiber_scale);

@@ -52,7 +52,8 @@ json session_json(const Simulation& sim, const std::string& name) {
                    {"tip_damage", m.tip_damage}, {"fiber_seed", m.fiber_seed},   {"fiber_scale", m.fiber_scale},
                    {"fracture_c", m.fracture_c}, {"speed", m.speed},             {"max_step", m.max_step},
                    {"min_step", m.min_step},     {"fiber_floor", m.fiber_floor},
-                   {"membrane_scale", m.membrane_scale}, {"strain_limit", m.strain_limit}};
+                   {"membrane_scale", m.membrane_scale}, {"strain_limit", m.strain_limit},
+                   {"compression_scale", m.compression_scale}, {"compression_limit", m.compression_limit}};
 
   // The detail noise as the simulation has it now (the viewer sets it live).
   json d = {{"sigma", detail_params(sim).sigma}, {"omega", detail_params(sim).omega}};

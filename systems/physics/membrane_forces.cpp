@@ -74,22 +74,27 @@ MembraneParams membrane_params(const Material& m) {
   p.thickness = m.thickness;
   p.strain_limit = m.strain_limit;
   p.limit_mu = std::max(0.0, m.young / (2 * (1 + m.poisson)) - p.mu);
+  p.compression_relief = 1 - m.compression_scale;
+  p.compression_limit = m.compression_limit;
   return p;
 }
 
-double strain_limit_term(const Mat2& strain, const MembraneParams& params, Mat2& tau, StrainLimitTangent* tangent) {
-  const double a = strain(0, 0), c = strain(1, 1), b = 0.5 * (strain(0, 1) + strain(1, 0));
-  const double m = 0.5 * (a + c), h = 0.5 * (a - c);
-  const double r = std::sqrt(h * h + b * b);
-  const double limit = params.strain_limit;
-  if (!(m + r > limit) || !(params.limit_mu > 0)) return 0;  // the common case: nothing stretched past the limit
-  const double e1 = m + r, e2 = m - r;
-  const double x1 = e1 - limit, x2 = std::max(0.0, e2 - limit);
-  // Unit eigenvector of e1 (the better conditioned of the two formulas), v2 ⟂ v1.
+namespace {
+
+// Unit eigenvector of the larger principal strain (the better conditioned of the two formulas).
+Vec2 first_eigenvector(double h, double b, double r) {
   Vec2 v1 = h >= 0 ? Vec2(r + h, b) : Vec2(b, r - h);
   const double n = v1.norm();
-  v1 = n > 1e-300 ? Vec2(v1 / n) : Vec2(1, 0);
-  const Vec2 v2(-v1.y(), v1.x());
+  return n > 1e-300 ? Vec2(v1 / n) : Vec2(1, 0);
+}
+
+// Past the strain limit: μ_lim Σ max(0, εᵢ − ε_lim)², its stress and tangent. m ± r are the principal strains.
+double stretch_limit_term(double m, double h, double b, double r, const MembraneParams& params, Mat2& tau,
+                          StrainLimitTangent* tangent) {
+  const double limit = params.strain_limit;
+  if (!(m + r > limit) || !(params.limit_mu > 0)) return 0;  // the common case: nothing stretched past the limit
+  const double x1 = m + r - limit, x2 = std::max(0.0, m - r - limit);
+  const Vec2 v1 = first_eigenvector(h, b, r), v2(-v1.y(), v1.x());
   const double k = 2 * params.limit_mu;
   tau += k * x1 * (v1 * v1.transpose()) + k * x2 * (v2 * v2.transpose());
   if (tangent) {
@@ -102,6 +107,46 @@ double strain_limit_term(const Mat2& strain, const MembraneParams& params, Mat2&
     }
   }
   return params.limit_mu * (x1 * x1 + x2 * x2);
+}
+
+// The relief: with c = 1 − compression_relief, W = μ Σ g(εᵢ) + λ/2 g(ε₁ + ε₂) for g(x) = x² (x ≥ 0),
+// c x² (x < 0): each term stays convex and C¹. This returns its difference from the linear energy,
+// −(1 − c) (μ Σ min(0, εᵢ)² + λ/2 min(0, ε₁ + ε₂)²), plus μ_lim max(0, −εᵢ − limit)², and adds its stress
+// Σ σᵢ vᵢvᵢᵀ (a symmetric function of the eigenvalues) to tau.
+double compression_relief_term(double m, double h, double b, double r, const MembraneParams& params, Mat2& tau,
+                               StrainLimitTangent* tangent) {
+  const double e[2] = {m + r, m - r};
+  const double relief = params.compression_relief, mu = params.mu, lambda = params.lambda;
+  const double trace = std::min(0.0, e[0] + e[1]);
+  double energy = -relief * 0.5 * lambda * trace * trace;
+  double sigma[2];
+  for (int i = 0; i < 2; ++i) {
+    const double c = std::min(0.0, e[i]), x = std::max(0.0, -e[i] - params.compression_limit);
+    energy += -relief * mu * c * c + params.limit_mu * x * x;
+    sigma[i] = -relief * (2 * mu * c + lambda * trace) - 2 * params.limit_mu * x;
+  }
+  const Vec2 v1 = first_eigenvector(h, b, r), v2(-v1.y(), v1.x());
+  tau += sigma[0] * (v1 * v1.transpose()) + sigma[1] * (v2 * v2.transpose());
+  // Past the compression limit the full modulus is back: the implicit step must see it, as past the
+  // stretch limit (the relief's softening itself is left out of the tangent, which stays the stiffer one).
+  if (tangent)
+    for (int i = 0; i < 2; ++i)
+      if (-e[i] - params.compression_limit > 0 && tangent->count < 2) {
+        tangent->direction[tangent->count] = i == 0 ? v1 : v2;
+        tangent->modulus[tangent->count++] = 2 * params.limit_mu;
+      }
+  return energy;
+}
+
+}  // namespace
+
+double strain_limit_term(const Mat2& strain, const MembraneParams& params, Mat2& tau, StrainLimitTangent* tangent) {
+  const double a = strain(0, 0), c = strain(1, 1), b = 0.5 * (strain(0, 1) + strain(1, 0));
+  const double m = 0.5 * (a + c), h = 0.5 * (a - c);
+  const double r = std::sqrt(h * h + b * b);
+  const double stretched = stretch_limit_term(m, h, b, r, params, tau, tangent);
+  if (params.compression_relief > 0 && m - r < 0) return stretched + compression_relief_term(m, h, b, r, params, tau, tangent);
+  return stretched;
 }
 
 double max_principal_strain(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
@@ -197,7 +242,7 @@ inline void corner_forces_of(double ax, double ay, double az, double bx, double 
     const double s01 = 0.5 * (rax * bx + ray * by + raz * bz + rbx * ax + rby * ay + rbz * az);
     strain << rax * ax + ray * ay + raz * az - 1, s01, s01, rbx * bx + rby * by + rbz * bz - 1;
     Mat2 tau = Mat2::Zero();
-    if (strain_limit_term(strain, *limit, tau) > 0) {
+    if (strain_limit_term(strain, *limit, tau) != 0) {
       const double t00 = eA * tau(0, 0), t01 = eA * tau(0, 1), t11 = eA * tau(1, 1);
       pax += rax * t00 + rbx * t01, pay += ray * t00 + rby * t01, paz += raz * t00 + rbz * t01;
       pbx += rax * t01 + rbx * t11, pby += ray * t01 + rby * t11, pbz += raz * t01 + rbz * t11;
@@ -225,7 +270,7 @@ void corotated_corner_forces(const CorotatedFrame& f, const Mat2& rest_inv, doub
   const Mat32& R = f.R;
   corner_forces_of(F(0, 0), F(1, 0), F(2, 0), F(0, 1), F(1, 1), F(2, 1), R(0, 0), R(1, 0), R(2, 0), R(0, 1), R(1, 1),
                    R(2, 1), f.trace_s, rest_inv, params.thickness * rest_area, 2 * params.mu, params.lambda,
-                   params.limit_mu > 0 ? &params : nullptr, corner_force);
+                   params.limit_mu > 0 || params.compression_relief > 0 ? &params : nullptr, corner_force);
 }
 
 void compute_membrane_forces(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
@@ -233,7 +278,7 @@ void compute_membrane_forces(const std::vector<Vec3>& x, const std::vector<Tri>&
                              const MembraneParams& params, int32_t begin, int32_t end,
                              std::vector<std::array<Vec3, 3>>& corner_force) {
   const double two_mu = 2 * params.mu, lambda = params.lambda, e = params.thickness;
-  const MembraneParams* limit = params.limit_mu > 0 ? &params : nullptr;
+  const MembraneParams* limit = params.limit_mu > 0 || params.compression_relief > 0 ? &params : nullptr;
   for (int32_t t = begin; t < end; ++t) {
     const Tri& c = tri[t];
     const CorotatedScalars s = corotated_scalars(x[c[0]].data(), x[c[1]].data(), x[c[2]].data(), rest_inv[t]);

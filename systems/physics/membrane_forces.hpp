@@ -7,6 +7,9 @@
 // full modulus (μ_lim = μ_full − μ), so strains stay bounded while a locked coarse mesh, whose spurious
 // strains are far below the limit, carries forces of paper's order. Its stress μ_lim 2 max(0, εᵢ − ε_lim)
 // vᵢvᵢᵀ shares E's eigenvectors, so P = R τ with τ = ∂W/∂S holds for it as for the rest.
+// With Material::compression_scale c < 1 (off by default) compressed principal directions and a
+// compressed trace keep c of their stiffness up to a compression of compression_limit, past which μ_lim
+// adds as for stretch (strain_limit_term computes both; docs/physics.md, "Compression relief").
 // The force on each corner is −∂W/∂x_corner; each triangle writes its own three corner forces
 // (Triangles::corner_force), read again by clustering (paper §5.1).
 #pragma once
@@ -21,11 +24,17 @@ struct MembraneParams {
   double thickness = 0;
   double strain_limit = 1e300;  // ε_lim: principal strain beyond which μ_lim adds
   double limit_mu = 0;          // μ_lim, Pa
+  // Compression relief: a compressed principal direction (and a compressed trace) keeps the fraction
+  // 1 − compression_relief of its stiffness, and the full modulus comes back (μ_lim, as past the strain
+  // limit) beyond a principal strain of −compression_limit. 0: off.
+  double compression_relief = 0;
+  double compression_limit = 1e300;
 };
 
 // The strain-limit term for a symmetric 2x2 strain E (rotated frame): returns its energy density
-// μ_lim Σ max(0, εᵢ − ε_lim)² and adds its stress τ = ∂/∂E to `tau`; with `tangent`, also the stiffness of
-// each stretched principal direction, 2 μ_lim vᵢvᵢᵀ ⊗ vᵢvᵢᵀ, as the unit directions and moduli (count ≤ 2).
+// μ_lim Σ max(0, εᵢ − ε_lim)² (plus the compression relief's, which is negative, when it is on) and adds its
+// stress τ = ∂/∂E to `tau`; with `tangent`, also the stiffness of each principal direction past a limit,
+// 2 μ_lim vᵢvᵢᵀ ⊗ vᵢvᵢᵀ, as the unit directions and moduli (count ≤ 2).
 struct StrainLimitTangent {
   int count = 0;
   Vec2 direction[2];

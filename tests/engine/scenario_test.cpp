@@ -232,6 +232,8 @@ const BadCase kBadCases[] = {
     {"tip_damage_above_one", "material.tip_damage: must be in [0, 1]"},
     {"membrane_scale_above_one", "material.membrane_scale: must be in [0, 1]"},
     {"negative_strain_limit", "material.strain_limit: must be positive"},
+    {"zero_compression_scale", "material.compression_scale: must be > 0"},
+    {"negative_compression_limit", "material.compression_limit: must be positive"},
     {"zero_grip", "fingers[1].grip: must be positive"},
     {"omega_negative", "detail.omega: must be in [0, 1]"},
     {"zero_fps", "sim.fps: must be positive"},
