@@ -21,12 +21,14 @@ namespace pt {
 
 const std::vector<std::string>& variation_keys() {
   static const std::vector<std::string> keys = {
-      "material.thickness",  "material.density",      "material.young",        "material.poisson",
-      "material.bending_scale", "material.tip_damage", "material.fracture_c",  "material.speed",
-      "material.max_step",   "material.damping",      "material.fiber_scale",  "material.membrane_scale",
-      "material.strain_limit", "material.compression_scale", "material.compression_limit", "detail.sigma",         "detail.omega",          "sim.substeps",
-      "sim.iterations",      "sim.relaxation_radius", "tearing.radius",        "tearing.snap",
-      "finger_speed"};
+      "material.thickness",     "material.density",           "material.young",
+      "material.poisson",       "material.bending_scale",     "material.tip_damage",
+      "material.fracture_c",    "material.speed",             "material.max_step",
+      "material.damping",       "material.fiber_scale",       "material.membrane_scale",
+      "material.strain_limit",  "material.compression_scale", "material.compression_limit",
+      "detail.sigma",           "detail.omega",               "sim.substeps",
+      "sim.iterations",         "sim.relaxation_radius",      "tearing.radius",
+      "tearing.snap",           "finger_speed"};
   return keys;
 }
 
