@@ -119,11 +119,12 @@ double compression_relief_term(double m, double h, double b, double r, const Mem
   const double relief = params.compression_relief, mu = params.mu, lambda = params.lambda;
   const double trace = std::min(0.0, e[0] + e[1]);
   double energy = -relief * 0.5 * lambda * trace * trace;
-  double sigma[2];
+  double sigma[2], past_limit[2];
   for (int i = 0; i < 2; ++i) {
     const double c = std::min(0.0, e[i]), x = std::max(0.0, -e[i] - params.compression_limit);
     energy += -relief * mu * c * c + params.limit_mu * x * x;
     sigma[i] = -relief * (2 * mu * c + lambda * trace) - 2 * params.limit_mu * x;
+    past_limit[i] = x;
   }
   const Vec2 v1 = first_eigenvector(h, b, r), v2(-v1.y(), v1.x());
   tau += sigma[0] * (v1 * v1.transpose()) + sigma[1] * (v2 * v2.transpose());
@@ -131,7 +132,7 @@ double compression_relief_term(double m, double h, double b, double r, const Mem
   // stretch limit (the relief's softening itself is left out of the tangent, which stays the stiffer one).
   if (tangent)
     for (int i = 0; i < 2; ++i)
-      if (-e[i] - params.compression_limit > 0 && tangent->count < 2) {
+      if (past_limit[i] > 0 && tangent->count < 2) {
         tangent->direction[tangent->count] = i == 0 ? v1 : v2;
         tangent->modulus[tangent->count++] = 2 * params.limit_mu;
       }

@@ -144,7 +144,7 @@ TEST(MembraneForces, CompressionReliefForcesAreMinusEnergyGradient) {
     o.x[2] = o.x[0] + Vec3(s2.x(), s2.y(), 0.0005 * u(rng));
     expect_forces_are_minus_energy_gradient(o, params, 1e-9, 2e-5, trial);
   }
-  // Uniaxial squeeze of 1% (the other direction free of stress is not needed: the ratio is the same law).
+  // A strain of −1% along x alone: the relief leaves a tenth of the linear stress along x.
   const MembraneParams stiff = paper_params();
   Mat2 strain;
   strain << -0.01, 0, 0, 0;
