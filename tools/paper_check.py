@@ -2,10 +2,16 @@
 """Runs scenarios and prints how they behave as paper: tears (longer than 3 mm), pieces, the peak finger
 force, the largest in-plane strain and the finger slips, one line each.
 
-  tools/paper_check.py [--bin build/bin/papertear] [--set KEY=VALUE]... [--triangles N]... [SCENARIO...]
+  tools/paper_check.py [--bin build/bin/papertear] [--set KEY=VALUE]... [--triangles N]... [--seeds N]
+                       [--summary] [SCENARIO...]
 
 Without SCENARIO it runs every file of scenarios/. With several --triangles it runs each scenario at each
-mesh density (the mesh-independence check of finger forces)."""
+mesh density (the mesh-independence check of finger forces). --seeds N runs each on N meshes of the same
+density (sheet.mesh_seed 0..N-1, the meshing frame turned 17 degrees per seed, as papertear-path-claims
+does). --summary prints, instead of a line per run, one line per scenario over its meshes (min / median /
+max) and then how many runs break each of the paper checks: a passive scene (pushed, bent or waved: it
+must not tear) holding more than 0.3 N or tearing, a tearing scene peaking above 5 N, a finger slipping,
+max_strain above 2%."""
 import argparse, json, math, os, subprocess, sys, tempfile, concurrent.futures
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -33,6 +39,8 @@ def main():
     ap.add_argument("--set", action="append", default=[])
     ap.add_argument("--triangles", action="append", type=int, default=[])
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--seeds", type=int, default=0)
+    ap.add_argument("--summary", action="store_true")
     ap.add_argument("scenarios", nargs="*")
     a = ap.parse_args()
     files = a.scenarios or sorted(os.path.join(ROOT, "scenarios", f) for f in os.listdir(os.path.join(ROOT, "scenarios"))
@@ -40,19 +48,25 @@ def main():
     jobs = []
     for f in files:
         for n in a.triangles or [None]:
-            jobs.append((f, n))
+            for seed in range(a.seeds) if a.seeds else [None]:
+                jobs.append((f, n, seed))
     tmp = tempfile.mkdtemp(prefix="paper-check-")
     def one(job):
-        f, n = job
+        f, n, seed = job
         settings = list(a.set) + ([f"sheet.triangles={n}"] if n else [])
-        out = os.path.join(tmp, os.path.basename(f)[:-5] + (f"-{n}" if n else ""))
+        if seed is not None:
+            settings += [f"sheet.mesh_seed={seed}", f"sheet.mesh_rotation_deg={17 * seed}"]
+        out = os.path.join(tmp, os.path.basename(f)[:-5] + (f"-{n}" if n else "") + (f"-s{seed}" if seed is not None else ""))
         return job, run(a.bin, f, settings, out)
-    print(f"{'scenario':<22} {'tri':>5} {'tears':>5} {'>3mm':>4} {'pieces':>6} {'peak N':>8} {'end N':>7} {'max_strain':>10} {'slips':>5} {'status':>6}")
+    if not a.summary:
+        print(f"{'scenario':<22} {'tri':>5} {'tears':>5} {'>3mm':>4} {'pieces':>6} {'peak N':>8} {'end N':>7} {'max_strain':>10} {'slips':>5} {'status':>6}")
+    rows = {}
     with concurrent.futures.ThreadPoolExecutor(a.jobs) as ex:
-        for (f, n), r in ex.map(one, jobs):
+        for (f, n, seed), r in ex.map(one, jobs):
             name = os.path.basename(f)[:-5]
             if "error" in r:
                 print(f"{name:<22} {n or '':>5} error: {r['error']}")
+                rows.setdefault(name, []).append(None)
                 continue
             tears = r["tears"]
             long_tears = sum(1 for t in tears if tear_length(t) > 3e-3)
@@ -60,8 +74,49 @@ def main():
             end = max((fi.get("force", 0) for fi in r["fingers"]), default=0)
             slips = sum(fi.get("slips", 0) for fi in r["fingers"])
             strain = r.get("max_strain", float("nan"))
-            print(f"{name:<22} {r['mesh']['triangles']:>5} {len(tears):>5} {long_tears:>4} {r['mesh']['pieces']:>6} "
-                  f"{peak:>8.3g} {end:>7.3g} {strain:>10.3g} {slips:>5} {r['status']:>6}", flush=True)
+            rows.setdefault(name, []).append(dict(triangles=r["mesh"]["triangles"], tears=len(tears), long=long_tears,
+                                                  pieces=r["mesh"]["pieces"], peak=peak, end=end, strain=strain,
+                                                  slips=slips))
+            if not a.summary:
+                print(f"{name:<22} {r['mesh']['triangles']:>5} {len(tears):>5} {long_tears:>4} {r['mesh']['pieces']:>6} "
+                      f"{peak:>8.3g} {end:>7.3g} {strain:>10.3g} {slips:>5} {r['status']:>6}", flush=True)
+    if a.summary:
+        summarize(rows)
+
+
+# The scenes that must not tear: a sheet pushed together, bent or waved (docs/physics.md).
+PASSIVE = {"push-together", "bent-cylinder", "waved-corners"}
+
+
+def spread(values, fmt):
+    v = sorted(values)
+    return f"{fmt(v[0])}/{fmt(v[len(v) // 2])}/{fmt(v[-1])}" if v else "-"
+
+
+def summarize(rows):
+    print(f"{'scenario':<18} {'runs':>4} {'triangles':>14} {'tears >3mm':>10} {'pieces':>7} {'peak N min/med/max':>20} "
+          f"{'max_strain %':>16} {'slips (runs)':>12}")
+    broken = {"passive > 0.3 N or torn": 0, "tearing scene > 5 N": 0, "slips": 0, "max_strain > 2%": 0, "errors": 0}
+    runs = 0
+    for name in sorted(rows):
+        ok = [x for x in rows[name] if x]
+        broken["errors"] += len(rows[name]) - len(ok)
+        runs += len(rows[name])
+        if not ok:
+            continue
+        for x in ok:
+            if name in PASSIVE:
+                broken["passive > 0.3 N or torn"] += x["peak"] > 0.3 or x["tears"] > 0
+            else:
+                broken["tearing scene > 5 N"] += x["peak"] > 5
+            broken["slips"] += x["slips"] > 0
+            broken["max_strain > 2%"] += x["strain"] > 0.02
+        print(f"{name:<18} {len(ok):>4} {spread([x['triangles'] for x in ok], str):>14} "
+              f"{spread([x['long'] for x in ok], str):>10} {spread([x['pieces'] for x in ok], str):>7} "
+              f"{spread([x['peak'] for x in ok], lambda v: f'{v:.2f}'):>20} "
+              f"{spread([100 * x['strain'] for x in ok], lambda v: f'{v:.1f}'):>16} "
+              f"{sum(x['slips'] for x in ok):>6} ({sum(1 for x in ok if x['slips']):>2})")
+    print(f"runs {runs}; breaking: " + ", ".join(f"{k} {v}" for k, v in broken.items()))
 
 
 if __name__ == "__main__":
