@@ -268,6 +268,7 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::
                              {"slips", f.slips}, {"let_go", f.let_go}});
   result["fingers"] = std::move(fingers);
   result["max_strain"] = num(sim.max_strain());
+  result["max_strain_beyond_tips"] = num(sim.max_strain_beyond_tips());
 
   const TimingReport& tr = sim.timings();
   result["timings_ms"] = ojson{{"physics", num.stat(tr.physics)},

@@ -126,8 +126,12 @@ class Simulation {
   // With EngineOptions::check_invariants: one line per remesh that broke an invariant of
   // docs/architecture.md "Data and its invariants".
   const std::vector<std::string>& invariant_violations() const;
-  // Largest principal in-plane strain of the sheet at the end of any frame so far.
+  // Largest principal in-plane strain of the sheet at the end of any frame so far (and where the physics
+  // stopped for tearing).
   double max_strain() const;
+  // The same over the triangles farther than 5 mm from every active tear tip at the time (the tips' own
+  // strain is singular, docs/physics.md).
+  double max_strain_beyond_tips() const;
   int32_t remesh_count() const;
   // Heap bytes the default implicit integrator keeps for this sheet (0 with projective dynamics or before
   // the first substep), for memory reports.

@@ -95,6 +95,7 @@ TEST_P(EveryScenario, RunsWithMeshInvariantsAndNoNaN) {
   EXPECT_TRUE(all_finite(r.sheet()));
   EXPECT_FALSE(r.sheet().tears.empty()) << "every figure scenario tears";
   EXPECT_EQ(check_mesh_invariants(r.sheet()), "");
+  EXPECT_LE(r.sim->max_strain_beyond_tips(), r.sim->max_strain()) << "a part of the sheet cannot stretch more";
   // A refused substep leaves the whole sheet where it was (no NaN enters it), so it must stay an exception.
   EXPECT_EQ(solver_stats(*r.sim).failures, 0) << "substeps the implicit solver refused";
 }
