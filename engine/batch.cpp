@@ -28,7 +28,9 @@ const std::vector<std::string>& variation_keys() {
       "material.strain_limit",  "material.compression_scale", "material.compression_limit",
       "detail.sigma",           "detail.omega",               "sim.substeps",
       "sim.iterations",         "sim.relaxation_radius",      "tearing.radius",
-      "tearing.snap",           "finger_speed"};
+      "tearing.snap",           "tearing.shielding_radius",   "tearing.max_turn_deg",
+      "tearing.start_wrap",     "tearing.start_length",       "tearing.edge_radius",
+      "tearing.bearing_length", "finger_speed"};
   return keys;
 }
 
@@ -81,6 +83,12 @@ void apply_variation(const std::string& key, double value, Scenario& s) {
   else if (key == "sim.relaxation_radius") s.sim.relaxation_radius = value;
   else if (key == "tearing.radius") s.tearing.radius = value;
   else if (key == "tearing.snap") s.tearing.snap = value;
+  else if (key == "tearing.shielding_radius") s.tearing.shielding_radius = value;
+  else if (key == "tearing.max_turn_deg") s.tearing.max_turn_deg = value;
+  else if (key == "tearing.start_wrap") s.tearing.start_wrap = value;
+  else if (key == "tearing.start_length") s.tearing.start_length = value;
+  else if (key == "tearing.edge_radius") s.tearing.edge_radius = value;
+  else if (key == "tearing.bearing_length") s.tearing.bearing_length = value;
   else if (key == "finger_speed") {
     // Motions play `value` times faster: every key time is divided by it.
     const double scale = value > 0 ? value : 1.0;

@@ -339,10 +339,18 @@ void read_sim(const Reader& r, const json& j, SimSettings& sim) {
 void read_tearing(const Reader& r, const json& j, TearingSettings& t) {
   const std::string path = "tearing";
   r.expect_object(j, path);
-  r.check_keys(j, path, {"direction", "radius", "snap"});
+  r.check_keys(j, path, {"direction", "radius", "snap", "shielding_radius", "max_turn_deg", "start_wrap",
+                         "start_length", "edge_radius", "bearing_length"});
   if (j.contains("direction")) t.direction = r.string(j["direction"], child(path, "direction"));
   if (j.contains("radius")) t.radius = r.number(j["radius"], child(path, "radius"));
   if (j.contains("snap")) t.snap = r.number(j["snap"], child(path, "snap"));
+  for (const auto& [key, value] : {std::pair<const char*, double*>{"shielding_radius", &t.shielding_radius},
+                                   {"max_turn_deg", &t.max_turn_deg},
+                                   {"start_wrap", &t.start_wrap},
+                                   {"start_length", &t.start_length},
+                                   {"edge_radius", &t.edge_radius},
+                                   {"bearing_length", &t.bearing_length}})
+    if (j.contains(key)) *value = r.number(j[key], child(path, key));
 }
 
 void read_fingers(const Reader& r, const json& j, std::vector<FingerSpec>& fingers) {
@@ -766,6 +774,20 @@ void validate_tearing(const Scenario& s) {
   if (s.tearing.radius > kMaxCoordinate)
     fail(file, "tearing.radius", "absurd size " + fmt(s.tearing.radius) + " (at most " + fmt(kMaxCoordinate) + ")");
   if (s.tearing.snap) check_range(file, "tearing.snap", *s.tearing.snap, 0, 0.45, false);
+  // Lengths in the pattern: zero turns shielding, the wrap's tolerance and the bearing's length off; the
+  // start's edge length and the disc it is read over must be positive.
+  check_range(file, "tearing.shielding_radius", s.tearing.shielding_radius, 0, kMaxCoordinate, false);
+  check_range(file, "tearing.start_wrap", s.tearing.start_wrap, 0, kMaxCoordinate, false);
+  check_range(file, "tearing.bearing_length", s.tearing.bearing_length, 0, kMaxCoordinate, false);
+  for (const auto& [key, value] : {std::pair<const char*, double>{"tearing.start_length", s.tearing.start_length},
+                                   {"tearing.edge_radius", s.tearing.edge_radius}}) {
+    check_positive(file, key, value);
+    if (value > kMaxCoordinate)
+      fail(file, key, "absurd size " + fmt(value) + " (at most " + fmt(kMaxCoordinate) + ")");
+  }
+  // A turn of 0 would stop every tip after its first segment; past 180 degrees any direction passes.
+  check_range(file, "tearing.max_turn_deg", s.tearing.max_turn_deg, 0, 180, false);
+  if (!(s.tearing.max_turn_deg > 0)) fail(file, "tearing.max_turn_deg", "must be positive, got 0");
 }
 
 // Fingers. None is fine in code (a sheet falling freely); files must have some (parse_scenario).

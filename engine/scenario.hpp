@@ -31,6 +31,15 @@ struct TearingSettings {
   std::string direction = "tension_rays";
   double radius = 0.04;                // m, the J-integral's domain ("material_force", and the rays' fallback)
   std::optional<double> snap;          // remeshing's snap fraction of an edge; unset: the direction's default
+  // The tearing step's constants a user may tune (docs/tearing.md; their defaults are the tearing step's
+  // own, systems/tearing/tearing_step.hpp and tension_ray_decision.hpp):
+  double shielding_radius = 0.01;  // m: no new tear starts this close to an active tip (crack shielding)
+  double max_turn_deg = 75;        // a tip's largest turn per step (a tear does not fold back into its lips)
+  double start_wrap = 0.003;       // m: an inward corner starts only this close to the path between two loads
+  double start_length = 0.01;      // m: the edge length whose tension starts a tear at a convex point
+  double edge_radius = 0.005;      // m: the disc over which that tension is read
+  double bearing_length = 0.005;   // m: a load's bearing is read this far along its path (smaller notch
+                                   // features do not steer)
   // A tension-ray tip follows O'Keefe's hyperbola, on which an offset from the snap persists and grows:
   // 0.03 of an edge keeps a symmetric pull within 0.3% of its mediator (0.06: up to 8%) without slivers.
   double snap_fraction() const {

@@ -35,6 +35,7 @@
 #include <cstdio>
 #include <cstring>
 #include <functional>
+#include <numbers>
 #include <stdexcept>
 
 namespace pt {
@@ -206,6 +207,12 @@ struct Simulation::Impl {
     tearing_params.rays.driving_force_radius = scenario.tearing.radius;
     tearing_params.quasi_static = tearing_params.direction == TearDirection::TensionRays;
     tearing_params.remesh.snap_fraction = scenario.tearing.snap_fraction();
+    tearing_params.shielding_radius = scenario.tearing.shielding_radius;
+    tearing_params.max_tip_turn = scenario.tearing.max_turn_deg * std::numbers::pi / 180.0;
+    tearing_params.rays.start_wrap = scenario.tearing.start_wrap;
+    tearing_params.rays.start_length = scenario.tearing.start_length;
+    tearing_params.rays.edge_radius = scenario.tearing.edge_radius;
+    tearing_params.rays.rays.bearing_length = scenario.tearing.bearing_length;
 
     update_finger_targets(0.0, sheet.hands, sheet.fingers);
     for (Finger& f : sheet.fingers) f.reaction.setZero();

@@ -64,8 +64,12 @@ json scenario_document(const pt::Scenario& s) {
                 {"relaxation_radius", s.sim.relaxation_radius}};
   if (s.sim.self_contact.on)
     doc["sim"]["self_contact"] = {{"gap", s.sim.self_contact.gap}, {"friction", s.sim.self_contact.friction}};
-  doc["tearing"] = {{"direction", s.tearing.direction}, {"radius", s.tearing.radius}};
-  if (s.tearing.snap) doc["tearing"]["snap"] = *s.tearing.snap;
+  const pt::TearingSettings& t = s.tearing;
+  doc["tearing"] = {{"direction", t.direction},           {"radius", t.radius},
+                    {"shielding_radius", t.shielding_radius}, {"max_turn_deg", t.max_turn_deg},
+                    {"start_wrap", t.start_wrap},         {"start_length", t.start_length},
+                    {"edge_radius", t.edge_radius},       {"bearing_length", t.bearing_length}};
+  if (t.snap) doc["tearing"]["snap"] = *t.snap;
   json fingers = json::array();
   for (const pt::FingerSpec& f : s.fingers) {
     json keys = json::array();

@@ -2,6 +2,7 @@
 // bad input must be an InputError whose one-line message names the file and the JSON path or the problem.
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
+#include "systems/tearing/tearing_step.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -9,6 +10,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <set>
 #include <string>
 #include <utility>
@@ -230,6 +232,7 @@ const BadCase kBadCases[] = {
     {"negative_young", "material.young: must be positive"},
     {"poisson_half", "material.poisson: must be in [0, 0.5)"},
     {"tip_damage_above_one", "material.tip_damage: must be in [0, 1]"},
+    {"tearing_zero_start_length", "tearing.start_length: must be positive, got 0"},
     {"membrane_scale_above_one", "material.membrane_scale: must be in [0, 1]"},
     {"negative_strain_limit", "material.strain_limit: must be positive"},
     {"zero_compression_scale", "material.compression_scale: must be > 0"},
@@ -495,6 +498,31 @@ TEST(Scenario, TearingIsRead) {
           "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
       "x.json");
   EXPECT_EQ(t.tearing.snap_fraction(), 0.2);
+  const pt::Scenario k = pt::parse_scenario(
+      R"({"sheet": {"preset": "A6"}, "tearing": {"shielding_radius": 0, "max_turn_deg": 90, "start_wrap": 0.002,
+          "start_length": 0.02, "edge_radius": 0.004, "bearing_length": 0.001},
+          "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
+      "x.json");
+  EXPECT_EQ(k.tearing.shielding_radius, 0.0);
+  EXPECT_EQ(k.tearing.max_turn_deg, 90.0);
+  EXPECT_EQ(k.tearing.start_wrap, 0.002);
+  EXPECT_EQ(k.tearing.start_length, 0.02);
+  EXPECT_EQ(k.tearing.edge_radius, 0.004);
+  EXPECT_EQ(k.tearing.bearing_length, 0.001);
+}
+
+// A scenario without the tearing step's keys runs the step's own defaults (the settings repeat them, as
+// the public header cannot include the systems').
+TEST(Scenario, TearingKeysDefaultToTheTearingStepsConstants) {
+  const pt::TearingSettings d;
+  const pt::TearingParams step;
+  const pt::TensionRayDecisionParams rays;
+  EXPECT_EQ(d.shielding_radius, step.shielding_radius);
+  EXPECT_DOUBLE_EQ(d.max_turn_deg * std::numbers::pi / 180.0, step.max_tip_turn);
+  EXPECT_EQ(d.start_wrap, rays.start_wrap);
+  EXPECT_EQ(d.start_length, rays.start_length);
+  EXPECT_EQ(d.edge_radius, rays.edge_radius);
+  EXPECT_EQ(d.bearing_length, rays.rays.bearing_length);
 }
 
 TEST(BadInput, Tearing) {
@@ -513,6 +541,20 @@ TEST(BadInput, Tearing) {
   EXPECT_NE(m.find("tearing.snap: must be in [0, 0.45]"), std::string::npos) << m;
   m = with(R"({"snap": -1})");
   EXPECT_NE(m.find("tearing.snap"), std::string::npos) << m;
+  m = with(R"({"shielding_radius": -0.01})");
+  EXPECT_NE(m.find("tearing.shielding_radius: must be in [0, 1000], got -0.01"), std::string::npos) << m;
+  m = with(R"({"max_turn_deg": 0})");
+  EXPECT_NE(m.find("tearing.max_turn_deg: must be positive"), std::string::npos) << m;
+  m = with(R"({"max_turn_deg": 190})");
+  EXPECT_NE(m.find("tearing.max_turn_deg: must be in [0, 180]"), std::string::npos) << m;
+  m = with(R"({"start_wrap": "near"})");
+  EXPECT_NE(m.find("tearing.start_wrap: expected a number"), std::string::npos) << m;
+  m = with(R"({"edge_radius": 0})");
+  EXPECT_NE(m.find("tearing.edge_radius: must be positive"), std::string::npos) << m;
+  m = with(R"({"edge_radius": 5000})");
+  EXPECT_NE(m.find("tearing.edge_radius: absurd size"), std::string::npos) << m;
+  m = with(R"({"bearing_length": -1})");
+  EXPECT_NE(m.find("tearing.bearing_length"), std::string::npos) << m;
   m = with(R"({"turn": 1})");
   EXPECT_NE(m.find("tearing"), std::string::npos) << m;
   EXPECT_NE(m.find("turn"), std::string::npos) << m;
