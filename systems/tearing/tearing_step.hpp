@@ -130,6 +130,16 @@ int32_t record_tear_segment(const Candidate& c, const Vec2& uv, const CutResult&
 void refresh_role_flags(const std::vector<Finger>& fingers, const std::vector<Tip>& tips,
                         std::vector<uint8_t>& flags);
 
+// The decision at candidate c, nothing cut: the tension rays' (TensionRays) or Fig. 4 steps 2–3 on its fan
+// (the others; no propagation when the fan cannot reach Griffith's threshold). Timed into `times`.
+PropagationDecision candidate_decision(const TearingParams& params, const Candidate& c, const Sheet& sheet,
+                                       TearingTimes& times, TearingScratch& scratch);
+
+// Of the start candidates (no tear) from index `first` on that are not shielded, the index of the one
+// whose decision propagates with the largest Er/Ef (the first in order on a tie); −1 when none does.
+int32_t strongest_start(const TearingParams& params, const std::vector<Candidate>& candidates, size_t first,
+                        const Sheet& sheet, TearingTimes& times, TearingScratch& scratch);
+
 // Clustering, decision, turn limit, cut and bookkeeping for one candidate (Fig. 4 steps 2–3, no
 // relaxation). Returns the id of the tear that got a segment, −1 when nothing was cut.
 int32_t propagate_candidate(const TearingParams& params, const Candidate& c, int32_t frame, Sheet& sheet,
@@ -145,7 +155,8 @@ bool tension_rays_would_tear(const TearingParams& params, const std::vector<Cand
 // The frame's tearing step: the candidates in order (hooks.list_candidates rewrites `candidates` after
 // each propagation and the list is walked again from its start), each pattern position and each tear
 // treated at most once, new starts near an active tip skipped, at most params.max_propagations
-// propagations, each followed by the relaxation.
+// propagations, each followed by the relaxation. With quasi_static, one start at most, before any cut:
+// the strongest (strongest_start).
 void run_tearing_step(const TearingParams& params, const TearingHooks& hooks, const std::vector<Candidate>& candidates,
                       int32_t frame, Sheet& sheet, TearingLog& log, TearingTimes& times, TearingScratch& scratch);
 

@@ -385,6 +385,42 @@ TEST(TearingStep, QuasiStaticStepStartsOneTearPerStop) {
   EXPECT_EQ(s.tears.size(), 2u);
 }
 
+// Of the starts due at one stop the strongest starts (the largest Er/Ef reached Griffith's threshold first
+// as the load grew), wherever it stands in the candidates' order: two loaded top-edge points, the one
+// listed first pulled with a third of the other's force.
+TEST(TearingStep, QuasiStaticStepStartsTheStrongestStart) {
+  for (const bool stronger_first : {false, true}) {
+    Sheet s = notched_sheet();
+    std::vector<int32_t> top;
+    for (int32_t v : s.topo.boundary_vertices) {
+      const Vec2& r = s.verts.rest[v];
+      if (r.y() > kSize - 1e-12 && r.x() > 1e-12 && r.x() < kSize - 1e-12) top.push_back(v);
+    }
+    ASSERT_GE(top.size(), 6u);
+    const int32_t weak = top[1], strong = top[top.size() - 2];
+    auto list = [&](std::vector<Candidate>& candidates) {
+      candidates.clear();
+      const int32_t first = stronger_first ? strong : weak, second = stronger_first ? weak : strong;
+      candidates.push_back(candidate(first, StartKind::Finger));
+      candidates.push_back(candidate(second, StartKind::Finger));
+      load_opening(weak, 1.0, s);
+      load_opening(strong, 3.0, s);
+    };
+    std::vector<Candidate> candidates;
+    list(candidates);
+    const Vec2 strong_uv = s.verts.rest[strong];
+    CountingHooks counting;  // relax clears the load: nothing more propagates in this step
+    TearingParams params = step_params(0.03);
+    params.quasi_static = true;
+    TearingLog log;
+    TearingTimes times;
+    TearingScratch scratch;
+    run_tearing_step(params, counting.hooks(s), candidates, 0, s, log, times, scratch);
+    ASSERT_EQ(s.tears.size(), 1u) << "stronger first: " << stronger_first;
+    EXPECT_EQ(s.tears[0].start_uv, strong_uv) << "stronger first: " << stronger_first;
+  }
+}
+
 // With the next frame's physics as the relaxation the step ends after its first propagation: the forces
 // and candidates are brought to the new mesh, and relax is not called.
 TEST(TearingStep, NextFrameRelaxationStopsAfterOnePropagation) {
