@@ -488,9 +488,10 @@ struct Simulation::Impl {
       run_ranges(T.size(), options.parallel_grain, [&](int32_t b, int32_t e) {
         for (int32_t t = b; t < e; ++t) triangle_strain[t] = max_principal_strain(V.x, T.tri, T.rest_inv, t, t + 1);
       });
-      for (const double v : triangle_strain) max_strain = std::max(max_strain, v);
-      for (int32_t t = 0; t < T.size(); ++t)
+      for (int32_t t = 0; t < T.size(); ++t) {
+        max_strain = std::max(max_strain, triangle_strain[t]);
         if (triangle_strain[t] > max_strain_beyond_tips && beyond_tips(t)) max_strain_beyond_tips = triangle_strain[t];
+      }
     }
     // A held vertex is in quasi-static balance: the finger supplies what the sheet and gravity do not.
     for (size_t i = 0; i < sheet.fingers.size(); ++i) {

@@ -19,7 +19,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <functional>
 #include <limits>
 #include <numbers>
 
@@ -429,18 +428,18 @@ bool snappable_vertex(const Cut& C, const std::vector<int32_t>& path, int32_t cu
 // there does not carry on along the hyperbola (docs/tearing.md "How far"). A split of edge uw at parameter
 // s that would leave a triangle with an angle below min_angle_deg at the walk's vertex `cur` goes to the
 // nearer end of the edge instead when that end is on the boundary (the tear then ends there) and may be
-// snapped to; returns that end, or −1 to split. Elsewhere crossings keep snap_fraction. Measured:
-// table-tear on 1 100 triangles crossed an edge 0.15 mm from a boundary vertex on its way there and left
-// a sliver (angles of 1.8°) strained to 56%.
-int32_t boundary_split_end(const Cut& C, int32_t cur, int32_t u, int32_t w, double s, const RemeshParams& params,
-                           const std::function<bool(int32_t)>& snappable) {
+// snapped to (snappable_vertex); returns that end, or −1 to split. Elsewhere crossings keep
+// snap_fraction. Measured: table-tear on 1 100 triangles crossed an edge 0.15 mm from a boundary vertex
+// on its way there and left a sliver (angles of 1.8°) strained to 56%.
+int32_t boundary_split_end(const Cut& C, const std::vector<int32_t>& path, int32_t cur, int32_t u, int32_t w, double s,
+                           const RemeshParams& params) {
   const int32_t end = s < 0.5 ? u : w;
   if (u == cur || w == cur || !C.boundary_vertex(end)) return -1;
   const Vec2 pc = C.r(cur), U = C.r(u), W = C.r(w);
   const Vec2 X = U + s * (W - U);
   const double thinnest = std::min(min_angle(pc, U, X), min_angle(pc, X, W));
   if (!(thinnest < params.min_angle_deg * std::numbers::pi / 180.0)) return -1;
-  return snappable(end) ? end : -1;
+  return snappable_vertex(C, path, cur, end) ? end : -1;
 }
 
 // Last step of the walk, `next` in triangle wt.t: snap it to a vertex, onto an edge, or insert it (1 → 3).
@@ -513,7 +512,7 @@ void end_walk_in_triangle(const Segment& seg, const WalkTriangle& wt, Cut& C, Wa
     // (measured: a vertex 2·10⁻⁸ m from another, pivots of condition 10¹⁷ in the implicit solve). Go to
     // the vertex, or end the cut where it stands when the vertex may not be snapped to.
     int32_t end_vertex = best_s < kEdgeEnd ? u : 1 - best_s < kEdgeEnd ? w : -1;
-    if (end_vertex < 0) end_vertex = boundary_split_end(C, cur, u, w, best_s, params, snappable);
+    if (end_vertex < 0) end_vertex = boundary_split_end(C, path, cur, u, w, best_s, params);
     if (end_vertex >= 0) {
       if (end_vertex != cur && snappable(end_vertex)) {
         path.push_back(end_vertex);
@@ -578,7 +577,7 @@ WalkedPath walk_and_split(const Segment& seg, Cut& C) {
     int32_t u = -1;
     if (s < params.snap_fraction && snappable(a)) u = a;
     else if (s > 1.0 - params.snap_fraction && snappable(b)) u = b;
-    else u = boundary_split_end(C, cur, a, b, s, params, snappable);
+    else u = boundary_split_end(C, path, cur, a, b, s, params);
     // A snap must bring the walk closer to next (so the walk always ends; without the snap the tear may stop
     // at cur, below, rather than turn back).
     if (u >= 0 && !((next - C.r(u)).norm() < dn)) u = -1;

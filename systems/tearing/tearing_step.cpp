@@ -156,9 +156,8 @@ PropagationDecision candidate_decision(const TearingParams& params, const Candid
   return decide_candidate_propagation(params, c, clusters, sheet, scratch);
 }
 
-int32_t propagate_candidate(const TearingParams& params, const Candidate& c, int32_t frame, Sheet& sheet,
-                            TearingLog& log, TearingTimes& times, TearingScratch& scratch) {
-  const PropagationDecision decision = candidate_decision(params, c, sheet, times, scratch);
+int32_t cut_candidate(const TearingParams& params, const Candidate& c, const PropagationDecision& decision,
+                      int32_t frame, Sheet& sheet, TearingLog& log, TearingTimes& times) {
   if (!decision.propagate) return -1;
   const Vec2 previous = c.tear >= 0 ? tip_direction(sheet.tips, c.tear) : Vec2(Vec2::Zero());
   if (c.tear >= 0 && !tip_direction_allowed(previous, decision.direction, params.max_tip_turn)) return -1;
@@ -191,6 +190,11 @@ int32_t propagate_candidate(const TearingParams& params, const Candidate& c, int
   return tear_id;
 }
 
+int32_t propagate_candidate(const TearingParams& params, const Candidate& c, int32_t frame, Sheet& sheet,
+                            TearingLog& log, TearingTimes& times, TearingScratch& scratch) {
+  return cut_candidate(params, c, candidate_decision(params, c, sheet, times, scratch), frame, sheet, log, times);
+}
+
 bool tension_rays_would_tear(const TearingParams& params, const std::vector<Candidate>& candidates,
                              const Sheet& sheet, TearingScratch& scratch) {
   for (const Candidate& c : candidates) {
@@ -205,7 +209,8 @@ bool tension_rays_would_tear(const TearingParams& params, const std::vector<Cand
 }
 
 int32_t strongest_start(const TearingParams& params, const std::vector<Candidate>& candidates, size_t first,
-                        const Sheet& sheet, TearingTimes& times, TearingScratch& scratch) {
+                        const Sheet& sheet, TearingTimes& times, TearingScratch& scratch,
+                        PropagationDecision& decision) {
   int32_t best = -1;
   double best_ratio = 0;
   for (size_t i = first; i < candidates.size(); ++i) {
@@ -216,6 +221,7 @@ int32_t strongest_start(const TearingParams& params, const std::vector<Candidate
     if (d.propagate && (best < 0 || ratio > best_ratio)) {
       best = static_cast<int32_t>(i);
       best_ratio = ratio;
+      decision = d;
     }
   }
   return best;
@@ -238,10 +244,11 @@ void run_tearing_step(const TearingParams& params, const TearingHooks& hooks, co
     // by vertex id, must not choose (start-finger's pinching finger and the edge beside it are often due at
     // one stop: over four meshes it made 1-6 tears at up to 12 N when the lower id started, 1-4 at up to
     // 5.3 N now).
+    PropagationDecision start;  // the chosen start's decision, taken once
     if (c.tear < 0 && params.quasi_static) {
       if (propagations > 0 || start_judged) continue;
       start_judged = true;
-      const int32_t best = strongest_start(params, candidates, index - 1, sheet, times, scratch);
+      const int32_t best = strongest_start(params, candidates, index - 1, sheet, times, scratch, start);
       if (best < 0) continue;
       c = candidates[best];
     }
@@ -250,7 +257,8 @@ void run_tearing_step(const TearingParams& params, const TearingHooks& hooks, co
     if (c.tear >= 0 && !params.quasi_static && extended.count(c.tear)) continue;
     if (start_shielded(params, c, sheet)) continue;
 
-    const int32_t tear_id = propagate_candidate(params, c, frame, sheet, log, times, scratch);
+    const int32_t tear_id = start.propagate ? cut_candidate(params, c, start, frame, sheet, log, times)
+                                            : propagate_candidate(params, c, frame, sheet, log, times, scratch);
     if (tear_id < 0) continue;
     extended.insert(tear_id);
     if (params.relaxation == TearRelaxation::NextFrame) {

@@ -136,12 +136,19 @@ PropagationDecision candidate_decision(const TearingParams& params, const Candid
                                        TearingTimes& times, TearingScratch& scratch);
 
 // Of the start candidates (no tear) from index `first` on that are not shielded, the index of the one
-// whose decision propagates with the largest Er/Ef (the first in order on a tie); −1 when none does.
+// whose decision propagates with the largest Er/Ef (the first in order on a tie), its decision in
+// `decision`; −1 when none does.
 int32_t strongest_start(const TearingParams& params, const std::vector<Candidate>& candidates, size_t first,
-                        const Sheet& sheet, TearingTimes& times, TearingScratch& scratch);
+                        const Sheet& sheet, TearingTimes& times, TearingScratch& scratch,
+                        PropagationDecision& decision);
+
+// Turn limit, cut and bookkeeping for one candidate whose decision is taken (Fig. 4 step 3, no
+// relaxation). Returns the id of the tear that got a segment, −1 when nothing was cut.
+int32_t cut_candidate(const TearingParams& params, const Candidate& c, const PropagationDecision& decision,
+                      int32_t frame, Sheet& sheet, TearingLog& log, TearingTimes& times);
 
 // Clustering, decision, turn limit, cut and bookkeeping for one candidate (Fig. 4 steps 2–3, no
-// relaxation). Returns the id of the tear that got a segment, −1 when nothing was cut.
+// relaxation): candidate_decision, then cut_candidate.
 int32_t propagate_candidate(const TearingParams& params, const Candidate& c, int32_t frame, Sheet& sheet,
                             TearingLog& log, TearingTimes& times, TearingScratch& scratch);
 

@@ -90,14 +90,21 @@ struct CountingHooks {
 
 // The top edge's vertices but its corners as finger starts, each loaded with a mode I opening: the
 // candidates of the budget and start tests, listed again after every cut (ids change).
-void list_loaded_top_edge(Sheet& s, std::vector<Candidate>& candidates) {
-  candidates.clear();
+// The top edge's boundary vertices but its two corners, in boundary order.
+std::vector<int32_t> top_edge_vertices(const Sheet& s) {
+  std::vector<int32_t> top;
   for (int32_t v : s.topo.boundary_vertices) {
     const Vec2& r = s.verts.rest[v];
-    if (r.y() > kSize - 1e-12 && r.x() > 1e-12 && r.x() < kSize - 1e-12) {
-      candidates.push_back(candidate(v, StartKind::Finger));
-      load_opening(v, 1.0, s);
-    }
+    if (r.y() > kSize - 1e-12 && r.x() > 1e-12 && r.x() < kSize - 1e-12) top.push_back(v);
+  }
+  return top;
+}
+
+void list_loaded_top_edge(Sheet& s, std::vector<Candidate>& candidates) {
+  candidates.clear();
+  for (int32_t v : top_edge_vertices(s)) {
+    candidates.push_back(candidate(v, StartKind::Finger));
+    load_opening(v, 1.0, s);
   }
 }
 
@@ -391,23 +398,13 @@ TEST(TearingStep, QuasiStaticStepStartsOneTearPerStop) {
 TEST(TearingStep, QuasiStaticStepStartsTheStrongestStart) {
   for (const bool stronger_first : {false, true}) {
     Sheet s = notched_sheet();
-    std::vector<int32_t> top;
-    for (int32_t v : s.topo.boundary_vertices) {
-      const Vec2& r = s.verts.rest[v];
-      if (r.y() > kSize - 1e-12 && r.x() > 1e-12 && r.x() < kSize - 1e-12) top.push_back(v);
-    }
+    const std::vector<int32_t> top = top_edge_vertices(s);
     ASSERT_GE(top.size(), 6u);
     const int32_t weak = top[1], strong = top[top.size() - 2];
-    auto list = [&](std::vector<Candidate>& candidates) {
-      candidates.clear();
-      const int32_t first = stronger_first ? strong : weak, second = stronger_first ? weak : strong;
-      candidates.push_back(candidate(first, StartKind::Finger));
-      candidates.push_back(candidate(second, StartKind::Finger));
-      load_opening(weak, 1.0, s);
-      load_opening(strong, 3.0, s);
-    };
-    std::vector<Candidate> candidates;
-    list(candidates);
+    const std::vector<Candidate> candidates = {candidate(stronger_first ? strong : weak, StartKind::Finger),
+                                               candidate(stronger_first ? weak : strong, StartKind::Finger)};
+    load_opening(weak, 1.0, s);
+    load_opening(strong, 3.0, s);
     const Vec2 strong_uv = s.verts.rest[strong];
     CountingHooks counting;  // relax clears the load: nothing more propagates in this step
     TearingParams params = step_params(0.03);
