@@ -235,7 +235,7 @@ struct Reader {
 void read_sheet(const Reader& r, const json& j, Scenario& s) {
   const std::string path = "sheet";
   r.expect_object(j, path);
-  r.check_keys(j, path, {"outline", "preset", "triangles", "mesh_seed", "mesh_rotation_deg"});
+  r.check_keys(j, path, {"outline", "preset", "triangles", "mesh_seed", "mesh_rotation_deg", "hand_lines"});
   const bool has_outline = j.contains("outline");
   const bool has_preset = j.contains("preset");
   if (has_outline && has_preset) fail(r.file, path, "give either outline or preset, not both");
@@ -263,6 +263,11 @@ void read_sheet(const Reader& r, const json& j, Scenario& s) {
   if (j.contains("mesh_seed")) s.mesh_seed = r.seed(j["mesh_seed"], child(path, "mesh_seed"));
   if (j.contains("mesh_rotation_deg"))
     s.mesh_rotation_deg = r.number(j["mesh_rotation_deg"], child(path, "mesh_rotation_deg"));
+  if (j.contains("hand_lines")) {
+    const json& h = j["hand_lines"];
+    if (!h.is_boolean()) fail(r.file, child(path, "hand_lines"), std::string("expected a boolean, got ") + type_name(h));
+    s.hand_lines = h.get<bool>();
+  }
 }
 
 void read_material(const Reader& r, const json& j, Material& m) {

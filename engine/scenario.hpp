@@ -100,6 +100,7 @@ struct Scenario {
   int32_t triangles = 400;
   uint64_t mesh_seed = 0;
   double mesh_rotation_deg = 0;
+  bool hand_lines = false;      // the line between a hand's consecutive fingers meshed as edges
   Material material;
   DetailSettings detail;
   SimSettings sim;

@@ -17,6 +17,27 @@ void bounding_box(const std::vector<Vec2>& outline, Vec2& lo, Vec2& hi) {
     hi = hi.cwiseMax(p);
   }
 }
+
+// `sheet.hand_lines`: a hand's fingers hold the sheet along the line between them, where it pivots as the
+// hand turns or the sheet bends away from it (an arch held at two points of each end). Flat triangles fold
+// without stretching only along their edges, so the line becomes a chain of mesh edges; across it the
+// straddling triangles lock (docs/physics.md, "Fingers"). Consecutive fingers of a hand in its listed
+// order; a line that leaves the sheet or crosses an earlier one is left to the mesh, as is a finger put on
+// later (it has no vertex yet).
+void hand_line_segments(const Scenario& scenario, const std::vector<int32_t>& required_of, MeshRequest& request) {
+  const auto required_point = [&](const std::string& name) {
+    for (size_t i = 0; i < scenario.fingers.size(); ++i)
+      if (scenario.fingers[i].name == name) return required_of[i];
+    return -1;
+  };
+  for (const HandSpec& hand : scenario.hands)
+    for (size_t k = 1; k < hand.fingers.size(); ++k) {
+      const int32_t a = required_point(hand.fingers[k - 1]), b = required_point(hand.fingers[k]);
+      if (a < 0 || b < 0) continue;
+      request.required_segments.push_back({a, b});
+      if (!segment_problem(request, request.required_segments.size() - 1).empty()) request.required_segments.pop_back();
+    }
+}
 }  // namespace
 
 Sheet build_sheet(const Scenario& scenario) {
@@ -33,6 +54,8 @@ Sheet build_sheet(const Scenario& scenario) {
       required_of[i] = static_cast<int32_t>(request.required_points.size());
       request.required_points.push_back(scenario.fingers[i].at);
     }
+
+  if (scenario.hand_lines) hand_line_segments(scenario, required_of, request);
 
   std::vector<Vec2> rest;
   std::vector<Tri> tri;

@@ -41,6 +41,7 @@ json scenario_document(const pt::Scenario& s) {
   sheet["triangles"] = s.triangles;
   sheet["mesh_seed"] = s.mesh_seed;
   sheet["mesh_rotation_deg"] = s.mesh_rotation_deg;
+  sheet["hand_lines"] = s.hand_lines;
   const pt::Material& m = s.material;
   doc["material"] = {{"thickness", m.thickness},   {"density", m.density},
                      {"young", m.young},           {"poisson", m.poisson},
@@ -442,6 +443,8 @@ void bind_scenario(py::module_& m) {
   property(c, "triangles", "sheet.triangles", [](const pt::Scenario& s) { return s.triangles; }, "The mesh's target.");
   property(c, "mesh_seed", "sheet.mesh_seed", [](const pt::Scenario& s) { return s.mesh_seed; }, "");
   property(c, "mesh_rotation_deg", "sheet.mesh_rotation_deg", [](const pt::Scenario& s) { return s.mesh_rotation_deg; }, "");
+  property(c, "hand_lines", "sheet.hand_lines", [](const pt::Scenario& s) { return s.hand_lines; },
+           "Mesh the line between a hand's consecutive fingers as edges.");
   property(c, "fiber_seed", "material.fiber_seed", [](const pt::Scenario& s) { return s.material.fiber_seed; }, "");
   property(c, "frames", "sim.frames", [](const pt::Scenario& s) { return s.sim.frames; }, "");
   property(c, "fps", "sim.fps", [](const pt::Scenario& s) { return s.sim.fps; }, "Frames per second.");

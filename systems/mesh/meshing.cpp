@@ -308,6 +308,11 @@ std::vector<Point> steiner_lattice(const Problem& pb, const MeshRequest& rq, dou
       const Vec2 q(x + jx, y + jy);
       for (size_t k = pb.ring_size; k < pb.frame.size() && ok; ++k)
         ok = (pb.frame[k] - q).squaredNorm() >= (0.75 * size) * (0.75 * size);
+      for (size_t k = 0; k < rq.required_segments.size() && ok; ++k) {
+        const auto& [a, b] = rq.required_segments[k];
+        ok = point_segment_distance2(q, pb.frame[pb.required_slot[a]], pb.frame[pb.required_slot[b]]) >=
+             (0.75 * size) * (0.75 * size);
+      }
       if (ok) out.emplace_back(q.x(), q.y());
     }
   }
@@ -326,10 +331,15 @@ long refine(const Problem& pb, const MeshRequest& rq, double aspect_bound, doubl
     ring.push_back(v);
   }
   for (int32_t i = 0; i < pb.ring_size; ++i) cdt.insert_constraint(ring[i], ring[(i + 1) % pb.ring_size]);
+  std::vector<CDT::Vertex_handle> vertex_of_slot = ring;
   for (size_t j = pb.ring_size; j < pb.frame.size(); ++j) {
     auto v = cdt.insert(Point(pb.frame[j].x(), pb.frame[j].y()));
     v->info().exact = int32_t(j);
+    vertex_of_slot.push_back(v);
   }
+  // Refinement splits a constrained segment where it must, so each stays a chain of mesh edges.
+  for (const auto& [a, b] : rq.required_segments)
+    cdt.insert_constraint(vertex_of_slot[pb.required_slot[a]], vertex_of_slot[pb.required_slot[b]]);
   if (rq.seed != 0 || rq.rotation_deg != 0) {
     const std::vector<Point> sites = steiner_lattice(pb, rq, size);
     cdt.insert(sites.begin(), sites.end());  // range insertion sorts spatially: fast for many points
@@ -414,6 +424,33 @@ std::vector<Vec2> preset_outline(const std::string& name) {
     throw GeometryError("unknown sheet preset \"" + name + "\" (known: A3, A4, A5, A6)");
   }
   return {Vec2(0, 0), Vec2(w, 0), Vec2(w, h), Vec2(0, h)};
+}
+
+std::string segment_problem(const MeshRequest& request, size_t k) {
+  const auto& points = request.required_points;
+  const auto& [a, b] = request.required_segments[k];
+  const auto valid = [&](int32_t i) { return i >= 0 && size_t(i) < points.size(); };
+  if (!valid(a) || !valid(b)) return "its points are not required points";
+  const Vec2 p = points[size_t(a)], q = points[size_t(b)];
+  if (!p.allFinite() || !q.allFinite()) return "a point is not finite";
+  if (p == q) return "its two points are the same";
+  // Inside: it crosses no outline edge, and points along it are on the sheet (which catches a segment
+  // that leaves through outline vertices, crossing no edge properly).
+  const auto& outline = request.outline;
+  const auto crosses = [](const Vec2& a0, const Vec2& a1, const Vec2& b0, const Vec2& b1) {
+    return orient(a0, a1, b0) * orient(a0, a1, b1) < 0 && orient(b0, b1, a0) * orient(b0, b1, a1) < 0;
+  };
+  for (size_t e = 0; e < outline.size(); ++e)
+    if (crosses(p, q, outline[e], outline[(e + 1) % outline.size()])) return "it leaves the outline";
+  constexpr int kSamples = 16;
+  for (int i = 1; i < kSamples; ++i)
+    if (!point_on_sheet(outline, p + (q - p) * (double(i) / kSamples))) return "it leaves the outline";
+  for (size_t j = 0; j < k; ++j) {
+    const auto& [c, d] = request.required_segments[j];
+    if (valid(c) && valid(d) && crosses(p, q, points[size_t(c)], points[size_t(d)]))
+      return "it crosses required segment " + std::to_string(j);
+  }
+  return "";
 }
 
 std::string outline_problem(const std::vector<Vec2>& outline) {
@@ -514,6 +551,10 @@ void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vect
   if (!std::isfinite(request.rotation_deg))
     throw GeometryError("mesh rotation is not finite");
 
+  for (size_t k = 0; k < request.required_segments.size(); ++k) {
+    const std::string why = segment_problem(request, k);
+    if (!why.empty()) throw GeometryError("required segment " + std::to_string(k) + ": " + why);
+  }
   const Problem prob = prepare(request);
   // A hair above the requested bound: restoring exact input coordinates after meshing in a rotated frame
   // moves vertices by ~1e-16 relative, which must not push an angle below the bound.

@@ -6,6 +6,7 @@
 #include "components/errors.hpp"
 #include "components/sheet.hpp"
 
+#include <array>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -15,6 +16,9 @@ namespace pt {
 struct MeshRequest {
   std::vector<Vec2> outline;           // counter-clockwise simple polygon, ≥ 3 vertices, meters
   std::vector<Vec2> required_points;   // must become mesh vertices (inside or on the outline)
+  // Pairs of required points (indices) whose straight segment must become a chain of mesh edges: each
+  // inside the outline, crossing no other. A hand's fingers hold the sheet along such a line.
+  std::vector<std::array<int32_t, 2>> required_segments;
   int32_t target_triangles = 400;      // the result is within ±20% of this
   uint64_t seed = 0;                   // 0: default mesh; others: a different irregular mesh of the same sheet
   double rotation_deg = 0;             // orientation of the meshing frame
@@ -23,7 +27,7 @@ struct MeshRequest {
 
 // Outputs: `rest` (pattern positions), `tri` (counter-clockwise), `required_vertex[i]` the vertex id
 // placed at required_points[i]. Throws GeometryError on a non-simple, clockwise or degenerate outline,
-// a required point outside it, a target outside [2, 2'000'000], or an outline whose features are so far
+// a required point outside it, a required segment that is not one (segment_problem), a target outside [2, 2'000'000], or an outline whose features are so far
 // below the mesh size that a quality mesh needs more than max(4 × target, 4 × its points, 10 000)
 // triangles (given up at that size, before it fills memory).
 void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vector<Tri>& tri,
@@ -46,6 +50,10 @@ std::vector<Vec2> preset_outline(const std::string& name);
 // Validation used by mesh_outline and the scenario loader: empty string when the outline is a simple,
 // counter-clockwise polygon with positive area and no repeated or collinear-degenerate vertices.
 std::string outline_problem(const std::vector<Vec2>& outline);
+
+// Empty when required segment k of the request can be constrained: two distinct required points, the
+// segment inside the outline (it may run along it) and crossing no earlier segment; else the reason.
+std::string segment_problem(const MeshRequest& request, size_t k);
 
 bool point_in_polygon(const std::vector<Vec2>& polygon, const Vec2& p, double tolerance = 1e-12);
 

@@ -411,7 +411,8 @@ class ScenarioInCode(unittest.TestCase):
         sc.add_finger("R", (0.1, 0.2), keys=[(0.0, (0.1, 0.2, 0.0)), (0.4, (0.15, 0.2, 0.05))], grip=20.0)
         sc.finger("L").grip = 12.0
         d = sc.to_dict()
-        self.assertEqual(d["sheet"], {"preset": "A5", "triangles": 200, "mesh_seed": 3, "mesh_rotation_deg": 0.0})
+        self.assertEqual(d["sheet"], {"preset": "A5", "triangles": 200, "mesh_seed": 3, "mesh_rotation_deg": 0.0,
+                                      "hand_lines": False})
         self.assertEqual((d["material"]["young"], d["material"]["fracture_c"], d["material"]["fiber_seed"]), (5e9, 3e4, 7))
         self.assertEqual((d["sim"]["frames"], d["sim"]["substeps"], d["sim"]["fps"]), (12, 5, 60.0))
         self.assertEqual((d["detail"]["sigma"], d["detail"]["omega"], d["tearing"]["radius"]), (2e-3, 0.25, 0.05))

@@ -275,6 +275,79 @@ TEST(Meshing, BadInputsThrow) {
   EXPECT_NE(message(rq).find("target"), std::string::npos);
 }
 
+// The mesh edges lying on [a, b] (both ends on it within 1e-12 m), summed: a segment that is a chain of
+// edges gives its own length; one that triangles straddle gives less.
+double edge_length_on(const Mesh& m, const Vec2& a, const Vec2& b) {
+  std::set<std::pair<int32_t, int32_t>> seen;
+  double total = 0;
+  const Vec2 d = (b - a).normalized();
+  auto on = [&](const Vec2& p) {
+    const double t = (p - a).dot(d);
+    return t >= -1e-12 && t <= (b - a).norm() + 1e-12 && std::abs(d.x() * (p - a).y() - d.y() * (p - a).x()) < 1e-12;
+  };
+  for (const Tri& t : m.tri)
+    for (int k = 0; k < 3; ++k) {
+      const int32_t i = std::min(t[k], t[(k + 1) % 3]), j = std::max(t[k], t[(k + 1) % 3]);
+      if (seen.insert({i, j}).second && on(m.rest[i]) && on(m.rest[j])) total += (m.rest[i] - m.rest[j]).norm();
+    }
+  return total;
+}
+
+TEST(Meshing, RequiredSegmentsBecomeChainsOfEdges) {
+  // A hand's two fingers inside an A5 sheet and another hand's two fingers on its border and inside, on
+  // several meshes and densities: each segment is covered by mesh edges end to end.
+  for (const int target : {120, 500}) {
+    for (const uint64_t seed : {uint64_t(0), uint64_t(1), uint64_t(2)}) {
+      MeshRequest rq;
+      rq.outline = preset_outline("A5");
+      rq.target_triangles = target;
+      rq.seed = seed;
+      rq.rotation_deg = 17.0 * double(seed);
+      rq.required_points = {Vec2(0.02, 0.08), Vec2(0.02, 0.13), Vec2(0.148, 0.1), Vec2(0.11, 0.17)};
+      rq.required_segments = {{0, 1}, {2, 3}};
+      const Mesh m = run(rq);
+      expect_valid(rq, m, "segments");
+      for (const auto& [a, b] : rq.required_segments) {
+        const Vec2 p = rq.required_points[size_t(a)], q = rq.required_points[size_t(b)];
+        EXPECT_NEAR(edge_length_on(m, p, q), (q - p).norm(), 1e-9) << target << " triangles, seed " << seed;
+      }
+      // Without the constraint the same mesh does not follow the slanted segment.
+      rq.required_segments.clear();
+      const Mesh free = run(rq);
+      EXPECT_LT(edge_length_on(free, rq.required_points[2], rq.required_points[3]),
+                0.99 * (rq.required_points[3] - rq.required_points[2]).norm())
+          << target << " triangles, seed " << seed;
+    }
+  }
+}
+
+TEST(Meshing, SegmentProblemsAreNamed) {
+  auto message = [](const MeshRequest& rq) -> std::string {
+    try {
+      run(rq);
+    } catch (const GeometryError& e) {
+      return e.what();
+    }
+    return "<no throw>";
+  };
+  MeshRequest rq;
+  rq.outline = notch_a5();
+  rq.target_triangles = 200;
+  // Across the notch, from one flank's side to the other.
+  rq.required_points = {Vec2(0.064, 0.205), Vec2(0.084, 0.205), Vec2(0.074, 0.1), Vec2(0.074, 0.18),
+                        Vec2(0.03, 0.15), Vec2(0.12, 0.15)};
+  rq.required_segments = {{0, 1}};
+  EXPECT_EQ(message(rq), "required segment 0: it leaves the outline");
+  rq.required_segments = {{2, 3}};  // below the notch's apex: inside
+  EXPECT_EQ(message(rq), "<no throw>");
+  rq.required_segments = {{2, 3}, {4, 5}};
+  EXPECT_EQ(message(rq), "required segment 1: it crosses required segment 0");
+  rq.required_segments = {{4, 4}};
+  EXPECT_EQ(message(rq), "required segment 0: its two points are the same");
+  rq.required_segments = {{4, 9}};
+  EXPECT_EQ(message(rq), "required segment 0: its points are not required points");
+}
+
 TEST(Meshing, TinyTargetGivesTwoTriangles) {
   MeshRequest rq;
   rq.outline = preset_outline("A4");
