@@ -189,6 +189,11 @@ struct Tear {
   std::vector<Vec2> detail;
   int32_t carved_segments = 0;  // segments of `tips` already carved into `detail`
   bool reached_boundary = false;
+  // How far the tear grew within one frame (pattern path length, m): its largest such advance, and the
+  // frame being summed. Hands tear paper at their own pace; a tear that outruns them ran away.
+  double max_frame_advance = 0;
+  double frame_advance = 0;
+  int32_t advance_frame = -1;
 };
 
 // What happened to a tear at a frame, in the order the tearing step did it (TearStarted or TearExtended

@@ -257,7 +257,8 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::
         {"parent", t.parent < 0 ? ojson(nullptr) : ojson(t.parent)},
         {"start", ojson{{"kind", start_kind_name(t.start_kind)}, {"frame", t.start_frame}, {"uv", num.uv(t.start_uv)}}},
         {"tips", num.path(t.tips)},
-        {"detail", num.path(t.detail)}});
+        {"detail", num.path(t.detail)},
+        {"max_advance_per_frame", num(t.max_frame_advance)}});
   }
   result["tears"] = std::move(tears);
 

@@ -298,7 +298,8 @@ PYBIND11_MODULE(papertear, m) {
               out.append(py::dict("id"_a = t.id, "parent"_a = t.parent < 0 ? py::object(py::none()) : py::int_(t.parent),
                                   "kind"_a = pt::to_string(t.start_kind), "frame"_a = t.start_frame,
                                   "uv"_a = py::make_tuple(t.start_uv.x(), t.start_uv.y()), "tips"_a = points(t.tips),
-                                  "detail"_a = points(t.detail), "reached_boundary"_a = t.reached_boundary));
+                                  "detail"_a = points(t.detail), "reached_boundary"_a = t.reached_boundary,
+                                  "max_advance_per_frame"_a = t.max_frame_advance));
             return out;
           },
           "Tears: id, parent (None), kind (finger|junction|inward), frame, uv, tips, detail (after flush()).")

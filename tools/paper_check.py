@@ -11,7 +11,10 @@ density (sheet.mesh_seed 0..N-1, the meshing frame turned 17 degrees per seed, a
 does). --summary prints, instead of a line per run, one line per scenario over its meshes (min / median /
 max) and then how many runs break each of the paper checks: a passive scene (pushed, bent or waved: it
 must not tear) holding more than 0.3 N or tearing, a tearing scene peaking above 5 N, a finger slipping,
-max_strain above 2%, and above 2% beyond 5 mm of the tear tips (max_strain_beyond_tips)."""
+max_strain above 2%, and above 2% beyond 5 mm of the tear tips (max_strain_beyond_tips). The "run cm"
+column is the longest path a tear grew within one frame (max_advance_per_frame): a notched sheet pulled
+in its own plane tears across at once, as paper does, but a tear made by hands moving out of the plane
+follows them (a few millimetres per frame), so a long run there means it ran away from them."""
 import argparse, json, math, os, subprocess, sys, tempfile, concurrent.futures
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -59,7 +62,7 @@ def main():
         out = os.path.join(tmp, os.path.basename(f)[:-5] + (f"-{n}" if n else "") + (f"-s{seed}" if seed is not None else ""))
         return job, run(a.bin, f, settings, out)
     if not a.summary:
-        print(f"{'scenario':<22} {'tri':>5} {'tears':>5} {'>3mm':>4} {'pieces':>6} {'peak N':>8} {'end N':>7} {'max_strain':>10} {'>5mm':>6} {'slips':>5} {'status':>6}")
+        print(f"{'scenario':<22} {'tri':>5} {'tears':>5} {'>3mm':>4} {'pieces':>6} {'peak N':>8} {'end N':>7} {'max_strain':>10} {'>5mm':>6} {'slips':>5} {'run cm':>6} {'status':>6}")
     rows = {}
     with concurrent.futures.ThreadPoolExecutor(a.jobs) as ex:
         for (f, n, seed), r in ex.map(one, jobs):
@@ -75,12 +78,13 @@ def main():
             slips = sum(fi.get("slips", 0) for fi in r["fingers"])
             strain = r.get("max_strain", float("nan"))
             beyond = r.get("max_strain_beyond_tips", float("nan"))
+            run_cm = 100 * max((t.get("max_advance_per_frame", 0) for t in tears), default=0)
             rows.setdefault(name, []).append(dict(triangles=r["mesh"]["triangles"], tears=len(tears), long=long_tears,
                                                   pieces=r["mesh"]["pieces"], peak=peak, end=end, strain=strain, beyond=beyond,
-                                                  slips=slips))
+                                                  slips=slips, run=run_cm))
             if not a.summary:
                 print(f"{name:<22} {r['mesh']['triangles']:>5} {len(tears):>5} {long_tears:>4} {r['mesh']['pieces']:>6} "
-                      f"{peak:>8.3g} {end:>7.3g} {strain:>10.3g} {beyond:>6.3g} {slips:>5} {r['status']:>6}", flush=True)
+                      f"{peak:>8.3g} {end:>7.3g} {strain:>10.3g} {beyond:>6.3g} {slips:>5} {run_cm:>6.2g} {r['status']:>6}", flush=True)
     if a.summary:
         summarize(rows)
 
@@ -96,7 +100,7 @@ def spread(values, fmt):
 
 def summarize(rows):
     print(f"{'scenario':<18} {'runs':>4} {'triangles':>14} {'tears >3mm':>10} {'pieces':>7} {'peak N min/med/max':>20} "
-          f"{'max_strain %':>16} {'beyond tips %':>16} {'slips (runs)':>12}")
+          f"{'max_strain %':>16} {'beyond tips %':>16} {'slips (runs)':>12} {'run cm':>15}")
     broken = {"passive > 0.3 N or torn": 0, "tearing scene > 5 N": 0, "slips": 0, "max_strain > 2%": 0,
               "beyond tips > 2%": 0, "errors": 0}
     runs = 0
@@ -119,7 +123,8 @@ def summarize(rows):
               f"{spread([x['peak'] for x in ok], lambda v: f'{v:.2f}'):>20} "
               f"{spread([100 * x['strain'] for x in ok], lambda v: f'{v:.1f}'):>16} "
               f"{spread([100 * x['beyond'] for x in ok], lambda v: f'{v:.1f}'):>16} "
-              f"{sum(x['slips'] for x in ok):>6} ({sum(1 for x in ok if x['slips']):>2})")
+              f"{sum(x['slips'] for x in ok):>6} ({sum(1 for x in ok if x['slips']):>2}) "
+              f"{spread([x['run'] for x in ok], lambda v: f'{v:.1f}'):>15}")
     print(f"runs {runs}; breaking: " + ", ".join(f"{k} {v}" for k, v in broken.items()))
 
 

@@ -103,6 +103,9 @@ int32_t record_tear_segment(const Candidate& c, const Vec2& uv, const CutResult&
   Tear& tear = tears[tear_id];
   tear.tips.push_back(cut.end);
   const Vec2 d = cut.end - uv;
+  if (tear.advance_frame != frame) tear.advance_frame = frame, tear.frame_advance = 0;
+  tear.frame_advance += d.norm();
+  tear.max_frame_advance = std::max(tear.max_frame_advance, tear.frame_advance);
   const Vec2 dir = d.norm() > 0 ? Vec2(d / d.norm()) : Vec2::Zero();
   tips.erase(std::remove_if(tips.begin(), tips.end(), [&](const Tip& t) { return t.tear == tear_id; }), tips.end());
   if (cut.reached_boundary) {

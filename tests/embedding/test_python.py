@@ -141,7 +141,8 @@ class Bindings(unittest.TestCase):
         tears = sim.tears
         self.assertGreaterEqual(len(tears), 1)
         t = tears[0]
-        self.assertEqual(set(t), {"id", "parent", "kind", "frame", "uv", "tips", "detail", "reached_boundary"})
+        self.assertEqual(set(t), {"id", "parent", "kind", "frame", "uv", "tips", "detail", "reached_boundary",
+                                  "max_advance_per_frame"})
         self.assertIn(t["kind"], ("finger", "junction", "inward"))
         self.assertEqual(len(t["uv"]), 2)
         kinds = [e["kind"] for e in sim.events]

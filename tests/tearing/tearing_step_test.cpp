@@ -190,6 +190,30 @@ TEST(TearingStep, RecordStartsANewTear) {
   EXPECT_EQ(events[0].frame, 17);
 }
 
+// max_advance_per_frame: the segments a tear gets within one frame add up; a new frame starts from zero.
+TEST(TearingStep, RecordSumsEachFramesAdvance) {
+  std::vector<Tear> tears;
+  std::vector<Tip> tips;
+  std::vector<TearEvent> events;
+  CutResult cut;
+  cut.cut = true;
+  auto segment = [&](int32_t tear, const Vec2& from, const Vec2& to, int32_t frame) {
+    cut.tip_vertex = 50 + static_cast<int32_t>(events.size());
+    cut.end = to;
+    record_tear_segment(candidate(cut.tip_vertex, StartKind::Inward, tear), from, cut, -1, false, frame, tears, tips,
+                        events);
+  };
+  segment(-1, Vec2(0, 0), Vec2(0, 0.002), 3);       // frame 3: 2 mm
+  segment(0, Vec2(0, 0.002), Vec2(0, 0.005), 3);    // + 3 mm
+  segment(0, Vec2(0, 0.005), Vec2(0.004, 0.008), 4);  // frame 4: 5 mm alone
+  ASSERT_EQ(tears.size(), 1u);
+  EXPECT_NEAR(tears[0].max_frame_advance, 0.005, 1e-15);
+  segment(0, Vec2(0.004, 0.008), Vec2(0.004, 0.0085), 4);  // frame 4: 5.5 mm
+  EXPECT_NEAR(tears[0].max_frame_advance, 0.0055, 1e-15);
+  segment(0, Vec2(0.004, 0.0085), Vec2(0.004, 0.0095), 9);
+  EXPECT_NEAR(tears[0].max_frame_advance, 0.0055, 1e-15);
+}
+
 // An existing tear keeps its start, appends the end and moves its tip; reaching the boundary removes the
 // tip, and a separated piece is reported after the extension.
 TEST(TearingStep, RecordExtendsAndEndsATear) {
