@@ -226,12 +226,20 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
   // Eq. 6 and O'Keefe's rule: t = ±normalize(u_L + u_R), Er = ‖P_L − P_R‖ cos(θ/2) / e with P the sides'
   // summed reactions: what pulls the two sides apart. Equal and opposite pulls give eq. 6's F_L + F_R; a
   // load both sides carry the same way (a sheet held up against its weight) opens nothing.
+  // O'Keefe's cos(θ/2) is the geometry of pulls in the sheet's plane. The part of P_L − P_R across the
+  // sheet at p (its normal n, when given) tears the lips apart as a trouser's legs are, whatever the
+  // bearings, so only the in-plane part is weighted: Er = ‖(Δ·n) n + cos(θ/2) (Δ − (Δ·n) n)‖ / e with
+  // Δ = P_L − P_R (the two parts are orthogonal). A hand lifting one side of a notch beside it (θ near π)
+  // then tears it as a trouser's leg does, at F ≈ Ef·e, not at Ef·e / cos(θ/2).
   const Vec2 ul = s.left.normalized(), ur = s.right.normalized();
   out.left_direction = ul;
   out.right_direction = ur;
   out.theta = std::atan2(std::abs(cross(ul, ur)), ul.dot(ur));
   out.opening_force = (s.left_pull - s.right_pull).norm();
-  out.energy_release = out.opening_force * std::cos(0.5 * out.theta) / params.thickness;
+  const Vec3 open = s.left_pull - s.right_pull;
+  const double across = params.normal.squaredNorm() > 0 ? open.dot(params.normal) : 0.0;
+  const double along = (open - across * params.normal).norm() * std::cos(0.5 * out.theta);
+  out.energy_release = std::sqrt(across * across + along * along) / params.thickness;
   const Vec2 sum = ul + ur;
   const double sum_norm = sum.norm();
   if (!(sum_norm > params.opposite_tolerance)) {

@@ -40,6 +40,9 @@ struct TensionRaysParams {
   // The length over which a load's bearing is read (see LoadRay::bearing): notch features smaller than
   // this (a 1 mm-wide slit's flat end) do not steer the tear or weaken Er.
   double bearing_length = 0.005;  // m
+  // The sheet's unit normal at p (3D), or zero (every pull read as in the plane): the part of the opening
+  // force across the sheet tears the lips apart as a trouser's legs, whatever the bearings (Er below).
+  Vec3 normal = Vec3::Zero();
   PatternPathParams paths;
 };
 

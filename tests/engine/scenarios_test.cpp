@@ -221,14 +221,14 @@ TEST(Scenarios, HandLinesKeepACoarsePushedSheetFromLocking) {
 }
 
 // Sheets torn from their border by fingers near it tear without a finger slipping, and no finger holds
-// more than 5 N but the zigzag's (5.2 N: its hands shear the strip between them in plane before the
-// junction at the notch starts; docs/tearing.md "Known gaps").
+// more than 5 N. The zigzag's hand lifting one side of the notch tears it as a trouser's leg (3.1 N on
+// its own mesh; 5.2 N when every pull was read in the plane, docs/tearing.md "Direction and Er").
 TEST(Scenarios, BorderTearsStartWithoutASlip) {
   const std::pair<const char*, double> scenes[] = {
       {"demo.json", 5.0},          {"fig13-twist.json", 5.0},     {"fig14-straight.json", 5.0},
       {"fig14-inplane.json", 5.0}, {"fig15-curved.json", 5.0},    {"fig16-direction.json", 5.0},
       {"fig21-notch.json", 5.0},   {"start-inward.json", 5.0},    {"start-finger.json", 5.0},
-      {"torn-in-two.json", 5.0},   {"fig12-junction.json", 5.0}, {"fig16-zigzag.json", 6.0},
+      {"torn-in-two.json", 5.0},   {"fig12-junction.json", 5.0}, {"fig16-zigzag.json", 5.0},
       {"fig17-branching.json", 5.0}};
   for (const auto& [file, peak] : scenes) {
     ScenarioRun r = run_scenario(load_scenario(scenario_path(file)));

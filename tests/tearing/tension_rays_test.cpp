@@ -326,6 +326,39 @@ TEST(TensionRays, FingersDirectlyBehindReleaseEverything) {
   EXPECT_EQ(r.rays[1].side, -1);
 }
 
+// Er's two parts (tension_rays.cpp): with the sheet's normal given, the opening force across the sheet
+// (a hand lifting one side, a trouser's legs) releases F_L + F_R whatever the bearings; in the plane
+// O'Keefe's cos(θ/2) still weighs it; without a normal every pull is read as in the plane.
+TEST(TensionRays, PullsAcrossTheSheetReleaseAsATrousersLegs) {
+  const Sheet s = one_slit();
+  const int32_t p = vertex_at(s, kSlitTip);
+  const Vec2 A(0.05, 0.03), B(0.15, 0.03);
+  const double theta = angle_at(kSlitTip, A, B);  // 2 atan(5/3) ≈ 118°
+  auto er = [&](const Vec3& left_pull, const Vec3& right_pull, const Vec3& normal) {
+    const std::vector<LoadPoint> loads = {{vertex_at(s, A), left_pull}, {vertex_at(s, B), right_pull}};
+    TensionRaysParams rp = params();
+    rp.normal = normal;
+    TensionRaysScratch scratch;
+    TensionRays out;
+    compute_tension_rays(s.verts.rest, s.tris.piece, s.topo, p, loads, rp, scratch, out);
+    EXPECT_TRUE(out.valid) << int(out.status);
+    EXPECT_NEAR(out.theta, theta, 1e-12);
+    return out.energy_release * kThickness;  // N
+  };
+  const Vec3 up(0, 0, 1), none = Vec3::Zero();
+  EXPECT_NEAR(er(0.7 * up, -0.4 * up, none), 1.1 * std::cos(theta / 2), 1e-12);
+  EXPECT_NEAR(er(0.7 * up, -0.4 * up, up), 1.1, 1e-12);
+  EXPECT_NEAR(er(0.7 * up, -0.4 * up, -up), 1.1, 1e-12);  // the normal's sense does not matter
+  // Pulls along their bearings, in the plane: the same with or without the normal.
+  const Vec3 a = Vec3(A.x() - kSlitTip.x(), A.y() - kSlitTip.y(), 0).normalized();
+  const Vec3 b = Vec3(B.x() - kSlitTip.x(), B.y() - kSlitTip.y(), 0).normalized();
+  EXPECT_NEAR(er(0.7 * a, 0.4 * b, up), er(0.7 * a, 0.4 * b, none), 1e-12);
+  EXPECT_NEAR(er(0.7 * a, 0.4 * b, up), (0.7 * a - 0.4 * b).norm() * std::cos(theta / 2), 1e-12);
+  // Both: the parts add as orthogonal vectors.
+  EXPECT_NEAR(er(0.7 * a + 0.3 * up, 0.4 * b - 0.2 * up, up),
+              std::hypot(0.5, (0.7 * a - 0.4 * b).norm() * std::cos(theta / 2)), 1e-12);
+}
+
 // θ = π: opposite in-plane pulls release nothing and give no direction.
 TEST(TensionRays, OppositePullsReleaseNothing) {
   const Sheet s = one_slit();
