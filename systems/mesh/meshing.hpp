@@ -27,9 +27,10 @@ struct MeshRequest {
 
 // Outputs: `rest` (pattern positions), `tri` (counter-clockwise), `required_vertex[i]` the vertex id
 // placed at required_points[i]. Throws GeometryError on a non-simple, clockwise or degenerate outline,
-// a required point outside it, a required segment that is not one (segment_problem), a target outside [2, 2'000'000], or an outline whose features are so far
-// below the mesh size that a quality mesh needs more than max(4 × target, 4 × its points, 10 000)
-// triangles (given up at that size, before it fills memory).
+// a required point outside it, a required segment that segment_problem refuses, a target outside
+// [2, 2'000'000], or an outline whose features are so far below the mesh size that a quality mesh needs
+// more than max(4 × target, 4 × its points, 10 000) triangles (given up at that size, before it fills
+// memory).
 void mesh_outline(const MeshRequest& request, std::vector<Vec2>& rest, std::vector<Tri>& tri,
                   std::vector<int32_t>& required_vertex);
 

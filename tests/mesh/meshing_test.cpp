@@ -242,37 +242,39 @@ TEST(Meshing, SeedsAndRotationsGiveDifferentMeshes) {
   }
 }
 
+// What mesh_outline throws for `rq`, or "<no throw>".
+std::string mesh_error(const MeshRequest& rq) {
+  try {
+    run(rq);
+  } catch (const GeometryError& e) {
+    return e.what();
+  }
+  return "<no throw>";
+}
+
 TEST(Meshing, BadInputsThrow) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  auto message = [](const MeshRequest& rq) -> std::string {
-    try {
-      run(rq);
-    } catch (const GeometryError& e) {
-      return e.what();
-    }
-    return "<no throw>";
-  };
   MeshRequest rq;
   rq.outline = poly({{0, 0}, {1, 1}, {1, 0}, {0, 1}});
-  EXPECT_NE(message(rq).find("not simple"), std::string::npos);
+  EXPECT_NE(mesh_error(rq).find("not simple"), std::string::npos);
   rq.outline = poly({{0, 0}, {0, 1}, {1, 1}, {1, 0}});
-  EXPECT_NE(message(rq).find("clockwise"), std::string::npos);
+  EXPECT_NE(mesh_error(rq).find("clockwise"), std::string::npos);
   rq.outline = poly({{0, 0}, {1, 0}});
-  EXPECT_NE(message(rq).find("at least 3"), std::string::npos);
+  EXPECT_NE(mesh_error(rq).find("at least 3"), std::string::npos);
   rq.outline = poly({{0, 0}, {1, 0}, {1, 0}, {0, 1}});
-  EXPECT_NE(message(rq).find("same point"), std::string::npos);
+  EXPECT_NE(mesh_error(rq).find("same point"), std::string::npos);
   rq.outline = poly({{0, 0}, {1, 0}, {1, nan}, {0, 1}});
-  EXPECT_NE(message(rq).find("non-finite"), std::string::npos);
+  EXPECT_NE(mesh_error(rq).find("non-finite"), std::string::npos);
   rq.outline = notch_a5();
   rq.required_points = {Vec2(0.074, 0.2)};  // in the notch
-  EXPECT_NE(message(rq).find("point (0.074, 0.2) is outside the outline"), std::string::npos) << message(rq);
+  EXPECT_NE(mesh_error(rq).find("point (0.074, 0.2) is outside the outline"), std::string::npos) << mesh_error(rq);
   rq.required_points = {Vec2(0.3, 0.1)};
-  EXPECT_NE(message(rq).find("outside the outline"), std::string::npos);
+  EXPECT_NE(mesh_error(rq).find("outside the outline"), std::string::npos);
   rq.required_points.clear();
   rq.target_triangles = 1;
-  EXPECT_NE(message(rq).find("target"), std::string::npos);
+  EXPECT_NE(mesh_error(rq).find("target"), std::string::npos);
   rq.target_triangles = 2'000'001;
-  EXPECT_NE(message(rq).find("target"), std::string::npos);
+  EXPECT_NE(mesh_error(rq).find("target"), std::string::npos);
 }
 
 // The mesh edges lying on [a, b] (both ends on it within 1e-12 m), summed: a segment that is a chain of
@@ -322,14 +324,6 @@ TEST(Meshing, RequiredSegmentsBecomeChainsOfEdges) {
 }
 
 TEST(Meshing, SegmentProblemsAreNamed) {
-  auto message = [](const MeshRequest& rq) -> std::string {
-    try {
-      run(rq);
-    } catch (const GeometryError& e) {
-      return e.what();
-    }
-    return "<no throw>";
-  };
   MeshRequest rq;
   rq.outline = notch_a5();
   rq.target_triangles = 200;
@@ -337,15 +331,15 @@ TEST(Meshing, SegmentProblemsAreNamed) {
   rq.required_points = {Vec2(0.064, 0.205), Vec2(0.084, 0.205), Vec2(0.074, 0.1), Vec2(0.074, 0.18),
                         Vec2(0.03, 0.15), Vec2(0.12, 0.15)};
   rq.required_segments = {{0, 1}};
-  EXPECT_EQ(message(rq), "required segment 0: it leaves the outline");
+  EXPECT_EQ(mesh_error(rq), "required segment 0: it leaves the outline");
   rq.required_segments = {{2, 3}};  // below the notch's apex: inside
-  EXPECT_EQ(message(rq), "<no throw>");
+  EXPECT_EQ(mesh_error(rq), "<no throw>");
   rq.required_segments = {{2, 3}, {4, 5}};
-  EXPECT_EQ(message(rq), "required segment 1: it crosses required segment 0");
+  EXPECT_EQ(mesh_error(rq), "required segment 1: it crosses required segment 0");
   rq.required_segments = {{4, 4}};
-  EXPECT_EQ(message(rq), "required segment 0: its two points are the same");
+  EXPECT_EQ(mesh_error(rq), "required segment 0: its two points are the same");
   rq.required_segments = {{4, 9}};
-  EXPECT_EQ(message(rq), "required segment 0: its points are not required points");
+  EXPECT_EQ(mesh_error(rq), "required segment 0: its points are not required points");
 }
 
 TEST(Meshing, TinyTargetGivesTwoTriangles) {
