@@ -106,6 +106,19 @@ double fan_force_sum(const Triangles& tris, const Topology& topo, int32_t p) {
   return sum;
 }
 
+Vec3 fan_normal(const std::vector<Vec3>& x, const std::vector<Tri>& tri, std::span<const int32_t> fan) {
+  Vec3 n = Vec3::Zero();
+  Vec3 largest = Vec3::Zero();
+  for (const int32_t t : fan) {
+    const Tri& c = tri[t];
+    const Vec3 area_normal = (x[c[1]] - x[c[0]]).cross(x[c[2]] - x[c[0]]);
+    n += area_normal;
+    if (area_normal.squaredNorm() > largest.squaredNorm()) largest = area_normal;
+  }
+  n = unit_or_zero(n.norm() > 1e-6 * largest.norm() ? n : largest);
+  return n.isZero() ? Vec3(Vec3::UnitZ()) : n;
+}
+
 bool cluster_tip_forces(const Vertices& verts, const Triangles& tris, const Topology& topo, int32_t p,
                         const ClusterParams& params, ForceClusters& out) {
   out = ForceClusters{};
@@ -120,21 +133,14 @@ bool cluster_tip_forces(const Vertices& verts, const Triangles& tris, const Topo
   const int32_t count = static_cast<int32_t>(fan.size());
   std::vector<Vec3> f(count);
   std::vector<Vec2> f_pattern(count);
-  Vec3 n = Vec3::Zero();
-  Vec3 largest = Vec3::Zero();
   for (int32_t k = 0; k < count; ++k) {
     const int32_t t = fan[k];
     const Tri& c = tris.tri[t];
     const int32_t i = corner_of(c, p);
     f[k] = i >= 0 ? tris.corner_force[t][i] : Vec3::Zero();
     f_pattern[k] = deformation_pseudo_inverse(deformation_gradient(verts, tris, t)) * f[k];
-    const Vec3 area_normal = (verts.x[c[1]] - verts.x[c[0]]).cross(verts.x[c[2]] - verts.x[c[0]]);
-    n += area_normal;
-    if (area_normal.squaredNorm() > largest.squaredNorm()) largest = area_normal;
   }
-  // A fan folded flat onto itself has no mean normal: fall back to its largest triangle's.
-  n = unit_or_zero(n.norm() > 1e-6 * largest.norm() ? n : largest);
-  if (n.isZero()) n = Vec3::UnitZ();
+  const Vec3 n = fan_normal(verts.x, tris.tri, fan);
   out.normal = n;
 
   // b0: interior bisector of the boundary tangents at p, in the tangent plane (paper Fig. 6 top). The

@@ -4,6 +4,8 @@
 
 #include "components/sheet.hpp"
 
+#include <span>
+
 namespace pt {
 
 struct ClusterParams {
@@ -35,6 +37,11 @@ bool cluster_tip_forces(const Vertices& verts, const Triangles& tris, const Topo
 // Er ≤ fan_force_sum / e (eq. 6, cos(φ/2) ≤ 1). A candidate below Griffith's threshold with this bound
 // cannot propagate, and the frame skips its clustering. NaN if a force is not finite.
 double fan_force_sum(const Triangles& tris, const Topology& topo, int32_t p);
+
+// The unit normal of a fan of triangles in 3D, area-weighted and oriented like the pattern (triangles are
+// counter-clockwise in it); a fan folded flat onto itself has no mean normal and gets its largest
+// triangle's, a degenerate one +z.
+Vec3 fan_normal(const std::vector<Vec3>& x, const std::vector<Tri>& tri, std::span<const int32_t> fan);
 
 // F⁺ = (FᵀF)⁻¹Fᵀ (2x3) of a 3x2 deformation gradient; zero for a degenerate F.
 Eigen::Matrix<double, 2, 3> deformation_pseudo_inverse(const Eigen::Matrix<double, 3, 2>& F);

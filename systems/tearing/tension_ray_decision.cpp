@@ -1,8 +1,7 @@
 #include "systems/tearing/tension_ray_decision.hpp"
 
 #include "systems/common/topology.hpp"
-
-#include <Eigen/Geometry>
+#include "systems/tearing/clustering.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -45,18 +44,6 @@ void finish_decision(const Sheet& sheet, int32_t p, const PropagationParams& pro
     d.propagate = false;
     d.next = Vec2::Zero();
   }
-}
-
-// The area-weighted unit normal of p's fan in 3D (zero for a fan folded flat onto itself): what "across
-// the sheet" means for the opening force at p.
-Vec3 fan_normal(const Sheet& sheet, int32_t p) {
-  Vec3 n = Vec3::Zero();
-  const std::vector<Vec3>& x = sheet.verts.x;
-  for (const int32_t t : sheet.topo.fan(p)) {
-    const Tri& c = sheet.tris.tri[t];
-    n += (x[c[1]] - x[c[0]]).cross(x[c[2]] - x[c[0]]);
-  }
-  return n.squaredNorm() > 0 ? Vec3(n.normalized()) : Vec3(Vec3::Zero());
 }
 
 bool inward_corner(const Sheet& sheet, int32_t p) {
@@ -111,7 +98,7 @@ PropagationDecision decide_by_tension_rays(const Sheet& sheet, int32_t p, double
   TensionRays& rays = scratch.result;
   TensionRaysParams rp = params.rays;
   rp.thickness = propagation.thickness;
-  rp.normal = fan_normal(sheet, p);
+  rp.normal = fan_normal(sheet.verts.x, sheet.tris.tri, sheet.topo.fan(p));  // "across the sheet" at p
   rp.previous_direction = propagation.previous_direction;
   compute_tension_rays(sheet.verts.rest, sheet.tris.piece, sheet.topo, p, scratch.loads, rp, scratch.rays, rays);
   if (rays.left_count == 0 || rays.right_count == 0) return d;

@@ -532,35 +532,28 @@ TEST(BadInput, Tearing) {
                              R"(, "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
                          "x.json");
   };
-  std::string m = with(R"({"direction": "ahead"})");
-  EXPECT_NE(m.find("x.json: tearing.direction: unknown direction \"ahead\""), std::string::npos) << m;
-  m = with(R"({"radius": 0})");
-  EXPECT_NE(m.find("tearing.radius"), std::string::npos) << m;
-  m = with(R"({"radius": "big"})");
-  EXPECT_NE(m.find("tearing.radius"), std::string::npos) << m;
-  m = with(R"({"snap": 0.5})");
-  EXPECT_NE(m.find("tearing.snap: must be in [0, 0.45]"), std::string::npos) << m;
-  m = with(R"({"snap": -1})");
-  EXPECT_NE(m.find("tearing.snap"), std::string::npos) << m;
-  m = with(R"({"shielding_radius": -0.01})");
-  EXPECT_NE(m.find("tearing.shielding_radius: must be in [0, 1000], got -0.01"), std::string::npos) << m;
-  m = with(R"({"max_turn_deg": 0})");
-  EXPECT_NE(m.find("tearing.max_turn_deg: must be positive"), std::string::npos) << m;
-  m = with(R"({"max_turn_deg": 190})");
-  EXPECT_NE(m.find("tearing.max_turn_deg: must be in [0, 180]"), std::string::npos) << m;
-  m = with(R"({"start_wrap": "near"})");
-  EXPECT_NE(m.find("tearing.start_wrap: expected a number"), std::string::npos) << m;
-  m = with(R"({"edge_radius": 0})");
-  EXPECT_NE(m.find("tearing.edge_radius: must be positive"), std::string::npos) << m;
-  m = with(R"({"edge_radius": 5000})");
-  EXPECT_NE(m.find("tearing.edge_radius: absurd size"), std::string::npos) << m;
-  m = with(R"({"bearing_length": -1})");
-  EXPECT_NE(m.find("tearing.bearing_length"), std::string::npos) << m;
-  m = with(R"({"turn": 1})");
-  EXPECT_NE(m.find("tearing"), std::string::npos) << m;
-  EXPECT_NE(m.find("turn"), std::string::npos) << m;
-  m = with(R"([1])");
-  EXPECT_NE(m.find("tearing"), std::string::npos) << m;
+  // Each "tearing" value, and what its one-line error must contain.
+  const std::pair<const char*, const char*> cases[] = {
+      {R"({"direction": "ahead"})", "x.json: tearing.direction: unknown direction \"ahead\""},
+      {R"({"radius": 0})", "tearing.radius"},
+      {R"({"radius": "big"})", "tearing.radius"},
+      {R"({"snap": 0.5})", "tearing.snap: must be in [0, 0.45]"},
+      {R"({"snap": -1})", "tearing.snap"},
+      {R"({"shielding_radius": -0.01})", "tearing.shielding_radius: must be in [0, 1000], got -0.01"},
+      {R"({"max_turn_deg": 0})", "tearing.max_turn_deg: must be positive"},
+      {R"({"max_turn_deg": 190})", "tearing.max_turn_deg: must be in [0, 180]"},
+      {R"({"start_wrap": "near"})", "tearing.start_wrap: expected a number"},
+      {R"({"edge_radius": 0})", "tearing.edge_radius: must be positive"},
+      {R"({"edge_radius": 5000})", "tearing.edge_radius: absurd size"},
+      {R"({"bearing_length": -1})", "tearing.bearing_length"},
+      {R"({"turn": 1})", "tearing"},
+      {R"({"turn": 1})", "turn"},
+      {R"([1])", "tearing"},
+  };
+  for (const auto& [tearing, expected] : cases) {
+    const std::string m = with(tearing);
+    EXPECT_NE(m.find(expected), std::string::npos) << tearing << ": " << m;
+  }
 }
 
 TEST(BadInput, UnsupportedVersion) {

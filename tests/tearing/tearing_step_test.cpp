@@ -88,8 +88,6 @@ struct CountingHooks {
   }
 };
 
-// The top edge's vertices but its corners as finger starts, each loaded with a mode I opening: the
-// candidates of the budget and start tests, listed again after every cut (ids change).
 // The top edge's boundary vertices but its two corners, in boundary order.
 std::vector<int32_t> top_edge_vertices(const Sheet& s) {
   std::vector<int32_t> top;
@@ -100,6 +98,8 @@ std::vector<int32_t> top_edge_vertices(const Sheet& s) {
   return top;
 }
 
+// The top edge's vertices but its corners as finger starts, each loaded with a mode I opening: the
+// candidates of the budget and start tests, listed again after every cut (ids change).
 void list_loaded_top_edge(Sheet& s, std::vector<Candidate>& candidates) {
   candidates.clear();
   for (int32_t v : top_edge_vertices(s)) {
@@ -107,6 +107,17 @@ void list_loaded_top_edge(Sheet& s, std::vector<Candidate>& candidates) {
     load_opening(v, 1.0, s);
   }
 }
+
+// The buffers a tearing step writes (its log, times and scratch), kept between the steps of a test.
+struct Step {
+  TearingLog log;
+  TearingTimes times;
+  TearingScratch scratch;
+  void run(const TearingParams& params, const TearingHooks& hooks, const std::vector<Candidate>& candidates,
+           int32_t frame, Sheet& s) {
+    run_tearing_step(params, hooks, candidates, frame, s, log, times, scratch);
+  }
+};
 
 }  // namespace
 
@@ -293,14 +304,12 @@ TEST(TearingStep, NotchedSheetPropagatesAndKeepsInvariants) {
   CountingHooks counting;
   std::vector<Candidate> candidates = {candidate(p)};
   counting.list = [&] { candidates.clear(); };
-  TearingLog log;
-  TearingTimes times;
-  TearingScratch scratch;
-  run_tearing_step(params, counting.hooks(s), candidates, 0, s, log, times, scratch);
+  Step step;
+  step.run(params, counting.hooks(s), candidates, 0, s);
 
   EXPECT_EQ(check_mesh_invariants(s, area), "");
-  EXPECT_TRUE(log.violations.empty()) << log.violations.front();
-  EXPECT_EQ(log.remeshes, 1);
+  EXPECT_TRUE(step.log.violations.empty()) << step.log.violations.front();
+  EXPECT_EQ(step.log.remeshes, 1);
   EXPECT_EQ(counting.relaxed, 1);
   EXPECT_EQ(counting.relaxed_tears, std::vector<int32_t>{0});
   EXPECT_EQ(counting.listed, 1);
@@ -317,22 +326,22 @@ TEST(TearingStep, NotchedSheetPropagatesAndKeepsInvariants) {
   EXPECT_NEAR((s.tips[0].direction - Vec2(0, -1)).norm(), 0, 1e-12);
   EXPECT_TRUE(s.verts.flags[tip] & kTip);
   EXPECT_NEAR(interior_pattern_angle(s.topo, s.verts.rest, tip), 2 * kPi, 1e-9);
-  ASSERT_EQ(log.events.size(), 1u);
-  EXPECT_EQ(log.events[0].kind, TearEvent::TearStarted);
-  EXPECT_GE(times.clustering, 0);
-  EXPECT_GE(times.remeshing, 0);
+  ASSERT_EQ(step.log.events.size(), 1u);
+  EXPECT_EQ(step.log.events[0].kind, TearEvent::TearStarted);
+  EXPECT_GE(step.times.clustering, 0);
+  EXPECT_GE(step.times.remeshing, 0);
 
   load_opening(tip, 1.0, s);
   candidates = {candidate(tip, StartKind::Inward, 0)};
-  run_tearing_step(params, counting.hooks(s), candidates, 1, s, log, times, scratch);
+  step.run(params, counting.hooks(s), candidates, 1, s);
   EXPECT_EQ(check_mesh_invariants(s, area), "");
-  EXPECT_TRUE(log.violations.empty());
+  EXPECT_TRUE(step.log.violations.empty());
   ASSERT_EQ(s.tears.size(), 1u);
   ASSERT_EQ(s.tears[0].tips.size(), 3u);
   EXPECT_NEAR((s.tears[0].tips[2] - (start + Vec2(0, -0.06))).norm(), 0, 1e-12);
-  ASSERT_EQ(log.events.size(), 2u);
-  EXPECT_EQ(log.events[1].kind, TearEvent::TearExtended);
-  EXPECT_EQ(log.events[1].frame, 1);
+  ASSERT_EQ(step.log.events.size(), 2u);
+  EXPECT_EQ(step.log.events[1].kind, TearEvent::TearExtended);
+  EXPECT_EQ(step.log.events[1].frame, 1);
   ASSERT_EQ(s.tips.size(), 1u);
   EXPECT_EQ(s.verts.rest[s.tips[0].vertex], s.tears[0].tips[2]);
 }
@@ -347,19 +356,17 @@ TEST(TearingStep, TipReachingTheBoundaryIsRemoved) {
   CountingHooks counting;
   std::vector<Candidate> candidates = {candidate(p)};
   counting.list = [&] { candidates.clear(); };
-  TearingLog log;
-  TearingTimes times;
-  TearingScratch scratch;
-  run_tearing_step(step_params(1.0), counting.hooks(s), candidates, 0, s, log, times, scratch);
+  Step step;
+  step.run(step_params(1.0), counting.hooks(s), candidates, 0, s);
   EXPECT_EQ(check_mesh_invariants(s, area), "");
   ASSERT_EQ(s.tears.size(), 1u);
   EXPECT_TRUE(s.tears[0].reached_boundary);
   EXPECT_NEAR(s.tears[0].tips.back().y(), 0, 1e-12);
   EXPECT_TRUE(s.tips.empty());
   EXPECT_EQ(s.topo.piece_count, 2);
-  ASSERT_EQ(log.events.size(), 2u);
-  EXPECT_EQ(log.events[0].kind, TearEvent::TearStarted);
-  EXPECT_EQ(log.events[1].kind, TearEvent::PieceSeparated);
+  ASSERT_EQ(step.log.events.size(), 2u);
+  EXPECT_EQ(step.log.events[0].kind, TearEvent::TearStarted);
+  EXPECT_EQ(step.log.events[1].kind, TearEvent::PieceSeparated);
 }
 
 // Every top-edge vertex is a finger start (not shielded) and is loaded again after each relaxation:
@@ -376,18 +383,16 @@ TEST(TearingStep, BudgetBoundsPropagationsPerFrame) {
     counting.list = list_top_edge;
     TearingParams params = step_params(0.03);
     params.max_propagations = budget;
-    TearingLog log;
-    TearingTimes times;
-    TearingScratch scratch;
-    run_tearing_step(params, counting.hooks(s), candidates, 0, s, log, times, scratch);
+    Step step;
+    step.run(params, counting.hooks(s), candidates, 0, s);
     // 64 is more than there are starts: then every top-edge vertex but the corners starts a tear.
     const int32_t expected = std::min(budget, 8);
     EXPECT_EQ(counting.relaxed, expected);
     EXPECT_EQ(counting.listed, expected);
-    EXPECT_EQ(log.remeshes, expected);
+    EXPECT_EQ(step.log.remeshes, expected);
     EXPECT_EQ(static_cast<int32_t>(s.tears.size()), expected);
     EXPECT_EQ(check_mesh_invariants(s, area), "");
-    EXPECT_TRUE(log.violations.empty());
+    EXPECT_TRUE(step.log.violations.empty());
   }
 }
 
@@ -404,15 +409,13 @@ TEST(TearingStep, QuasiStaticStepStartsOneTearPerStop) {
   counting.list = list_top_edge;
   TearingParams params = step_params(0.03);
   params.quasi_static = true;
-  TearingLog log;
-  TearingTimes times;
-  TearingScratch scratch;
-  run_tearing_step(params, counting.hooks(s), candidates, 0, s, log, times, scratch);
+  Step step;
+  step.run(params, counting.hooks(s), candidates, 0, s);
   EXPECT_EQ(s.tears.size(), 1u);
-  EXPECT_EQ(log.remeshes, 1);
+  EXPECT_EQ(step.log.remeshes, 1);
   // The next stop starts the next one.
   list_top_edge();
-  run_tearing_step(params, counting.hooks(s), candidates, 1, s, log, times, scratch);
+  step.run(params, counting.hooks(s), candidates, 1, s);
   EXPECT_EQ(s.tears.size(), 2u);
 }
 
@@ -433,10 +436,8 @@ TEST(TearingStep, QuasiStaticStepStartsTheStrongestStart) {
     CountingHooks counting;  // relax clears the load: nothing more propagates in this step
     TearingParams params = step_params(0.03);
     params.quasi_static = true;
-    TearingLog log;
-    TearingTimes times;
-    TearingScratch scratch;
-    run_tearing_step(params, counting.hooks(s), candidates, 0, s, log, times, scratch);
+    Step step;
+    step.run(params, counting.hooks(s), candidates, 0, s);
     ASSERT_EQ(s.tears.size(), 1u) << "stronger first: " << stronger_first;
     EXPECT_EQ(s.tears[0].start_uv, strong_uv) << "stronger first: " << stronger_first;
   }
@@ -453,10 +454,8 @@ TEST(TearingStep, NextFrameRelaxationStopsAfterOnePropagation) {
   counting.list = list_top_edge;
   TearingParams params = step_params(0.03);
   params.relaxation = TearRelaxation::NextFrame;
-  TearingLog log;
-  TearingTimes times;
-  TearingScratch scratch;
-  run_tearing_step(params, counting.hooks(s), candidates, 0, s, log, times, scratch);
+  Step step;
+  step.run(params, counting.hooks(s), candidates, 0, s);
   EXPECT_EQ(counting.relaxed, 0);
   EXPECT_EQ(counting.forces, 1);
   EXPECT_EQ(counting.listed, 1);
@@ -477,16 +476,14 @@ TEST(TearingStep, StepSkipsShieldedStarts) {
   counting.list = [&] { candidates.clear(); };
   TearingParams params = step_params(0.03);
   params.shielding_radius = 0.025;
-  TearingLog log;
-  TearingTimes times;
-  TearingScratch scratch;
+  Step step;
   Sheet shielded = s;
-  run_tearing_step(params, counting.hooks(shielded), candidates, 0, shielded, log, times, scratch);
-  EXPECT_EQ(log.remeshes, 0);
+  step.run(params, counting.hooks(shielded), candidates, 0, shielded);
+  EXPECT_EQ(step.log.remeshes, 0);
   EXPECT_EQ(counting.relaxed, 0);
   params.shielding_radius = 0.02;
-  run_tearing_step(params, counting.hooks(s), candidates, 0, s, log, times, scratch);
-  EXPECT_EQ(log.remeshes, 1);
+  step.run(params, counting.hooks(s), candidates, 0, s);
+  EXPECT_EQ(step.log.remeshes, 1);
   EXPECT_EQ(counting.relaxed, 1);
 }
 
@@ -512,15 +509,13 @@ TEST(TearingStep, WouldTearAgreesWithTheStep) {
     params.direction = TearDirection::TensionRays;
     params.quasi_static = true;
     std::vector<Candidate> candidates = {Candidate{tip, StartKind::Inward, 0, ef}};
-    TearingScratch scratch;
-    const bool would = tension_rays_would_tear(params, candidates, s, scratch);
+    Step step;
+    const bool would = tension_rays_would_tear(params, candidates, s, step.scratch);
     EXPECT_EQ(would, scale > 1) << "scale " << scale;
     CountingHooks counting;
     counting.list = [&] { candidates.clear(); };
-    TearingLog log;
-    TearingTimes times;
-    run_tearing_step(params, counting.hooks(s), candidates, 0, s, log, times, scratch);
-    EXPECT_EQ(log.remeshes, would ? 1 : 0);
+    step.run(params, counting.hooks(s), candidates, 0, s);
+    EXPECT_EQ(step.log.remeshes, would ? 1 : 0);
 
     // The turn limit: the same pull on a tip whose last segment ran at 45°.
     if (scale > 1) {
@@ -529,8 +524,8 @@ TEST(TearingStep, WouldTearAgreesWithTheStep) {
       TearingParams strict = params;
       strict.max_tip_turn = 30.0 * kPi / 180;
       const std::vector<Candidate> tip_only = {Candidate{sideways.tips[0].vertex, StartKind::Inward, 0, ef}};
-      EXPECT_TRUE(tension_rays_would_tear(params, tip_only, sideways, scratch));  // 45° < 75°
-      EXPECT_FALSE(tension_rays_would_tear(strict, tip_only, sideways, scratch));
+      EXPECT_TRUE(tension_rays_would_tear(params, tip_only, sideways, step.scratch));  // 45° < 75°
+      EXPECT_FALSE(tension_rays_would_tear(strict, tip_only, sideways, step.scratch));
     }
   }
 }
