@@ -23,6 +23,7 @@ namespace pt {
 using Vec2 = Eigen::Vector2d;
 using Vec3 = Eigen::Vector3d;
 using Mat2 = Eigen::Matrix2d;
+using Mat3 = Eigen::Matrix3d;
 using Tri = std::array<int32_t, 3>;
 
 // Office paper, 80 g/m² (docs/physics.md). The tearing constants are calibrated so a trouser pull starts
@@ -244,6 +245,11 @@ struct Finger {
   bool let_go = false;           // the paper slid out of the pinch (released, not by the scenario)
   int32_t slips = 0;             // times the grip was exceeded
   Vec3 hold_offset = Vec3::Zero();  // where the held vertex is kept relative to target, m
+  // A pad (systems/physics/fingers.hpp, "pads"): the vertices within pad_radius of uv, held rigidly with the
+  // finger and turned with its hand. pad_offset[j] is pad[j]'s offset from `vertex` in the hand's frame.
+  double pad_radius = 0;         // m; 0: the finger holds its vertex only
+  std::vector<int32_t> pad;
+  std::vector<Vec3> pad_offset;
 };
 
 struct Hand {

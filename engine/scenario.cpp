@@ -35,6 +35,7 @@ constexpr double kMaxCoordinate = 1'000;   // m: outline and finger targets
 constexpr double kMaxGravity = 10'000;     // m/s²
 constexpr double kMaxKeyTime = 1e7;        // s
 constexpr double kMaxGrip = 1e4;           // N
+constexpr double kMaxPad = 0.05;           // m: a clamp as wide as a hand
 constexpr int32_t kMaxObstacles = 1'000;    // each is a pass over the vertices per substep
 constexpr double kMaxFriction = 100;        // Coulomb μ (rubber on rubber is ~1–2)
 constexpr double kMaxSelfContactGap = 0.01; // m: a gap wider than a mesh's edges would push neighbours apart
@@ -366,7 +367,7 @@ void read_fingers(const Reader& r, const json& j, std::vector<FingerSpec>& finge
     const std::string p = child(path, i);
     const json& f = j[i];
     r.expect_object(f, p);
-    r.check_keys(f, p, {"name", "at", "keys", "attach", "release", "grip"});
+    r.check_keys(f, p, {"name", "at", "keys", "attach", "release", "grip", "pad"});
     FingerSpec spec;
     if (!f.contains("name")) fail(r.file, p, "missing name");
     spec.name = r.string(f["name"], child(p, "name"));
@@ -388,6 +389,7 @@ void read_fingers(const Reader& r, const json& j, std::vector<FingerSpec>& finge
     if (f.contains("attach")) spec.attach = r.number(f["attach"], child(p, "attach"));
     if (f.contains("release")) spec.release = r.number(f["release"], child(p, "release"));
     if (f.contains("grip")) spec.grip = r.number(f["grip"], child(p, "grip"));
+    if (f.contains("pad")) spec.pad = r.number(f["pad"], child(p, "pad"));
     fingers.push_back(std::move(spec));
   }
 }
@@ -824,6 +826,8 @@ void validate_fingers(const Scenario& s, const std::vector<Vec2>& outline) {
     if (!(f.release > f.attach)) fail(file, child(p, "release"), "must come after attach");
     check_positive(file, child(p, "grip"), f.grip);
     if (f.grip > kMaxGrip) fail(file, child(p, "grip"), "absurd grip " + fmt(f.grip) + " N (at most " + fmt(kMaxGrip) + ")");
+    if (!std::isfinite(f.pad) || f.pad < 0 || f.pad > kMaxPad)
+      fail(file, child(p, "pad"), "a pad's radius is 0 (a point) to " + fmt(kMaxPad) + " m, not " + fmt(f.pad));
   }
 }
 

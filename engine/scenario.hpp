@@ -83,6 +83,7 @@ struct FingerSpec {
   double attach = 0;         // s: put on the sheet then (0: from the start, a mesh vertex is placed at `at`)
   double release = 1e300;    // s: let go then
   double grip = 15;          // N: the largest force the pinch holds before the paper slides through it
+  double pad = 0;            // m: radius of the patch the pinch holds (0: a point; systems/physics/fingers.hpp)
 };
 
 struct HandSpec {

@@ -2,10 +2,13 @@
 
 #include "systems/mesh/meshing.hpp"
 #include "systems/physics/fingers.hpp"
+#include "systems/common/pattern_geometry.hpp"
 #include "systems/common/topology.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <numbers>
 
 namespace pt {
 
@@ -38,6 +41,33 @@ void hand_line_segments(const Scenario& scenario, const std::vector<int32_t>& re
       if (!segment_problem(request, request.required_segments.size() - 1).empty()) request.required_segments.pop_back();
     }
 }
+// Pads (systems/physics/fingers.hpp): a ring of six points at the pad's radius around each finger put on
+// from the start, so that every mesh holds the same disc. A point outside the sheet, within a quarter of the
+// radius of its outline or of a required segment, or within half of it of another required point is left
+// out (it would make slivers); the pad then holds what the mesh has there.
+void pad_rings(const Scenario& scenario, MeshRequest& request) {
+  constexpr int kRingPoints = 6;
+  for (const FingerSpec& finger : scenario.fingers) {
+    const double r = finger.pad;
+    if (finger.attach > 0 || !(r > 0)) continue;
+    for (int k = 0; k < kRingPoints; ++k) {
+      const double a = 2 * std::numbers::pi * k / kRingPoints;
+      const Vec2 q = finger.at + r * Vec2(std::cos(a), std::sin(a));
+      if (!point_in_polygon(request.outline, q)) continue;
+      double clearance2 = std::numeric_limits<double>::infinity();
+      const std::vector<Vec2>& o = request.outline;
+      for (size_t e = 0; e < o.size(); ++e)
+        clearance2 = std::min(clearance2, point_segment_distance2(q, o[e], o[(e + 1) % o.size()]));
+      for (const auto& [a_index, b_index] : request.required_segments)
+        clearance2 = std::min(clearance2, point_segment_distance2(q, request.required_points[a_index],
+                                                                  request.required_points[b_index]));
+      if (clearance2 < r * r / 16) continue;
+      bool crowded = false;
+      for (const Vec2& p : request.required_points) crowded = crowded || (p - q).squaredNorm() < r * r / 4;
+      if (!crowded) request.required_points.push_back(q);
+    }
+  }
+}
 }  // namespace
 
 Sheet build_sheet(const Scenario& scenario) {
@@ -56,6 +86,7 @@ Sheet build_sheet(const Scenario& scenario) {
     }
 
   if (scenario.hand_lines) hand_line_segments(scenario, required_of, request);
+  pad_rings(scenario, request);
 
   std::vector<Vec2> rest;
   std::vector<Tri> tri;
@@ -81,6 +112,7 @@ Sheet build_sheet(const Scenario& scenario) {
     f.attach_time = spec.attach;
     f.release_time = spec.release;
     f.grip = spec.grip;
+    f.pad_radius = spec.pad;
     f.start = Vec3(spec.at.x(), spec.at.y(), 0.0);
     f.target = f.start;
     sheet.fingers.push_back(f);
@@ -99,6 +131,7 @@ Sheet build_sheet(const Scenario& scenario) {
     hand_centroid_of_starts(sheet.fingers, h);
     sheet.hands.push_back(h);
   }
+  for (size_t i = 0; i < sheet.fingers.size(); ++i) grab_pad(sheet.verts, sheet.hands, 0.0, i, sheet.fingers);
   refresh_after_topology_change(sheet);
   return sheet;
 }

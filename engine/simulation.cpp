@@ -145,6 +145,7 @@ struct Simulation::Impl {
   bool last_substep_rerun = false; // the frame's last substep stopped once and runs again to its end
   double physics_alpha = 1.0;      // how far through the frame's finger motion the physics is (1 unless stopped)
   std::vector<Vec3> hold_points;  // per finger: scratch of the pinches and the re-grip after a cut
+  std::vector<Mat3> pad_rotations;  // per finger: scratch of the re-grip's pad rotations
   // A slipping pinch pulls like this spring, its force capped at the grip: the grip within ~2 mm.
   static constexpr double kPinchStiffness = 7500;  // N/m
   std::vector<Candidate> candidates;
@@ -242,6 +243,10 @@ struct Simulation::Impl {
     return (1 - alpha) * targets_begin[i] + alpha * sheet.fingers[i].target;
   }
   Vec3 hold_point(size_t i, double alpha) const { return target_at(i, alpha) + sheet.fingers[i].hold_offset; }
+  // The rotation finger i's pad turns with at fraction alpha of the frame's motion.
+  Mat3 rotation_at(size_t i, double alpha) const {
+    return finger_rotation(sheet.hands, sheet.fingers[i], (1 - alpha) * time_at(frame) + alpha * time_at(frame + 1));
+  }
 
   void held_vertices(double alpha, std::vector<int32_t>& held, std::vector<Vec3>& target) const {
     held.clear();
@@ -250,8 +255,15 @@ struct Simulation::Impl {
       const Finger& f = sheet.fingers[i];
       if (f.vertex < 0) continue;
       if (f.slipping) continue;  // pulls through its pinch's spring instead (systems/physics/grip.hpp)
+      const Vec3 centre = hold_point(i, alpha);
       held.push_back(f.vertex);
-      target.push_back(hold_point(i, alpha));
+      target.push_back(centre);
+      if (f.pad.empty()) continue;
+      const Mat3 rotation = rotation_at(i, alpha);
+      for (size_t j = 0; j < f.pad.size(); ++j) {
+        held.push_back(f.pad[j]);
+        target.push_back(centre + rotation * f.pad_offset[j]);
+      }
     }
   }
 
@@ -271,12 +283,11 @@ struct Simulation::Impl {
         f.start = sheet.verts.x[f.vertex];
         if (f.keys.empty()) f.target = f.start;  // hold the sheet where it was grabbed
         if (f.hand >= 0) hand_centroid_of_starts(sheet.fingers, sheet.hands[f.hand]);
+        grab_pad(sheet.verts, sheet.hands, t, static_cast<size_t>(&f - sheet.fingers.data()), sheet.fingers);
         changed = true;
       }
       if (f.vertex >= 0 && f.release_time <= t) {
-        f.vertex = -1;
-        f.released = true;
-        f.reaction.setZero();
+        release(f);
         changed = true;
       }
     }
@@ -288,7 +299,9 @@ struct Simulation::Impl {
     attach_and_release(time_at(frame));
     targets_begin.clear();
     for (const Finger& f : sheet.fingers) targets_begin.push_back(f.target);
-    if (regrip_slipping_fingers(sheet.verts, targets_begin, sheet.fingers)) refresh_role_flags();
+    pad_rotations.clear();
+    for (size_t i = 0; i < sheet.fingers.size(); ++i) pad_rotations.push_back(rotation_at(i, 0));
+    if (regrip_slipping_fingers(sheet.verts, targets_begin, pad_rotations, sheet.fingers)) refresh_role_flags();
     update_finger_targets(time_at(frame + 1), sheet.hands, sheet.fingers);
   }
 
@@ -541,8 +554,12 @@ struct Simulation::Impl {
   void relax_after_cut(int32_t tear_id) {
     // A slipping finger holds again where it is: the cut may have relieved the pull that made it slip.
     hold_points.clear();
-    for (size_t i = 0; i < sheet.fingers.size(); ++i) hold_points.push_back(target_at(i, physics_alpha));
-    if (regrip_slipping_fingers(sheet.verts, hold_points, sheet.fingers)) refresh_role_flags();
+    pad_rotations.clear();
+    for (size_t i = 0; i < sheet.fingers.size(); ++i) {
+      hold_points.push_back(target_at(i, physics_alpha));
+      pad_rotations.push_back(rotation_at(i, physics_alpha));
+    }
+    if (regrip_slipping_fingers(sheet.verts, hold_points, pad_rotations, sheet.fingers)) refresh_role_flags();
     if (relaxation == Relaxation::Patch) {
       std::vector<int32_t> held;
       std::vector<Vec3> target;
@@ -768,9 +785,7 @@ void Simulation::set_detail_noise(double sigma, double omega) {
 void Simulation::release_finger(int32_t finger) {
   Finger& f = finger_of(impl_->sheet, finger, "release_finger");
   f.release_time = time();
-  f.vertex = -1;
-  f.released = true;
-  f.reaction.setZero();
+  release(f);
   impl_->refresh_role_flags();
 }
 

@@ -82,6 +82,7 @@ json session_json(const Simulation& sim, const std::string& name) {
     // meshing); fingers put on during the session are inserted at their attach time.
     if (!in_scenario(sc, f.name) || f.attach_time > 0) jf["attach"] = f.attach_time;
     jf["grip"] = f.grip;
+    if (f.pad_radius > 0) jf["pad"] = f.pad_radius;
     if (f.released && std::isfinite(f.release_time) && f.release_time < 1e299) jf["release"] = f.release_time;
     fingers.push_back(jf);
   }

@@ -2,6 +2,8 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
+
 #include <cmath>
 #include <numbers>
 
@@ -21,29 +23,33 @@ Vec3 finger_key_position(const Finger& finger, double t) {
   return k.back().position;
 }
 
-Vec3 apply_hand_motion(const Hand& hand, double t, const Vec3& q) {
+namespace {
+
+// A hand's keys interpolated at time t (held before the first and after the last).
+struct HandPose {
+  Vec3 translate = Vec3::Zero();
+  double angle_deg = 0;
+  Vec3 axis = Vec3(0, 0, 1);
+};
+
+HandPose hand_pose(const Hand& hand, double t) {
   const auto& k = hand.keys;
-  if (k.empty()) return q;
-  Vec3 translate;
-  double angle_deg;
-  Vec3 axis;
-  if (t <= k.front().t) {
-    translate = k.front().translate, angle_deg = k.front().rotate_deg, axis = k.front().axis;
-  } else if (t >= k.back().t) {
-    translate = k.back().translate, angle_deg = k.back().rotate_deg, axis = k.back().axis;
-  } else {
-    size_t i = 1;
-    while (i < k.size() && t >= k[i].t) ++i;
-    const double span = k[i].t - k[i - 1].t;
-    const double a = span > 0 ? (t - k[i - 1].t) / span : 1.0;
-    translate = (1 - a) * k[i - 1].translate + a * k[i].translate;
-    angle_deg = (1 - a) * k[i - 1].rotate_deg + a * k[i].rotate_deg;
-    // The axis of the key being moved towards: a hand turns about one axis per interval.
-    axis = k[i].axis;
-  }
+  if (t <= k.front().t) return {k.front().translate, k.front().rotate_deg, k.front().axis};
+  if (t >= k.back().t) return {k.back().translate, k.back().rotate_deg, k.back().axis};
+  size_t i = 1;
+  while (i < k.size() && t >= k[i].t) ++i;
+  const double span = k[i].t - k[i - 1].t;
+  const double a = span > 0 ? (t - k[i - 1].t) / span : 1.0;
+  // The axis of the key being moved towards: a hand turns about one axis per interval.
+  return {(1 - a) * k[i - 1].translate + a * k[i].translate, (1 - a) * k[i - 1].rotate_deg + a * k[i].rotate_deg,
+          k[i].axis};
+}
+
+Mat3 rotation_of(const HandPose& pose) {
   // The norm of [1e200, 1e200, 0] overflows and that of [1e-200, 0, 0] underflows, either of which would
   // make the axis zero and the rotation a scaling: such an axis is scaled by its largest component first
   // (others keep the plain quotient, so their results do not change by a rounding).
+  const Vec3& axis = pose.axis;
   const double n = axis.norm();
   const double largest = axis.cwiseAbs().maxCoeff();
   Vec3 unit_axis(0, 0, 1);
@@ -51,8 +57,56 @@ Vec3 apply_hand_motion(const Hand& hand, double t, const Vec3& q) {
     unit_axis = axis / n;
   else if (largest > 0 && std::isfinite(largest))
     unit_axis = (axis / largest).normalized();
-  const Eigen::AngleAxisd rotation(angle_deg * std::numbers::pi / 180.0, unit_axis);
-  return hand.centroid + rotation * (q - hand.centroid) + translate;
+  return Eigen::AngleAxisd(pose.angle_deg * std::numbers::pi / 180.0, unit_axis).toRotationMatrix();
+}
+
+}  // namespace
+
+Mat3 hand_rotation(const Hand& hand, double t) {
+  return hand.keys.empty() ? Mat3::Identity() : rotation_of(hand_pose(hand, t));
+}
+
+Vec3 apply_hand_motion(const Hand& hand, double t, const Vec3& q) {
+  if (hand.keys.empty()) return q;
+  const HandPose pose = hand_pose(hand, t);
+  return hand.centroid + rotation_of(pose) * (q - hand.centroid) + pose.translate;
+}
+
+Mat3 finger_rotation(const std::vector<Hand>& hands, const Finger& f, double t) {
+  return f.hand >= 0 ? hand_rotation(hands[f.hand], t) : Mat3::Identity();
+}
+
+void reset_pad_offsets(const Vertices& verts, const Mat3& rotation, Finger& f) {
+  f.pad_offset.clear();
+  for (int32_t v : f.pad) f.pad_offset.push_back(rotation.transpose() * (verts.x[v] - verts.x[f.vertex]));
+}
+
+void grab_pad(const Vertices& verts, const std::vector<Hand>& hands, double t, size_t i, std::vector<Finger>& fingers) {
+  Finger& f = fingers[i];
+  f.pad.clear();
+  f.pad_offset.clear();
+  if (f.vertex < 0 || !(f.pad_radius > 0)) return;
+  // The ring the builder meshed lies at the radius exactly: a relative margin keeps it in.
+  const double reach2 = f.pad_radius * f.pad_radius * (1 + 1e-9);
+  for (int32_t v = 0; v < static_cast<int32_t>(verts.rest.size()); ++v) {
+    if (v == f.vertex || (verts.rest[v] - f.uv).squaredNorm() > reach2) continue;
+    bool taken = false;
+    for (size_t k = 0; k < fingers.size() && !taken; ++k) {
+      if (k == i || fingers[k].vertex < 0) continue;
+      taken = fingers[k].vertex == v ||
+              std::find(fingers[k].pad.begin(), fingers[k].pad.end(), v) != fingers[k].pad.end();
+    }
+    if (!taken) f.pad.push_back(v);
+  }
+  reset_pad_offsets(verts, finger_rotation(hands, f, t), f);
+}
+
+void release(Finger& f) {
+  f.vertex = -1;
+  f.released = true;
+  f.reaction.setZero();
+  f.pad.clear();
+  f.pad_offset.clear();
 }
 
 void hand_centroid_of_starts(const std::vector<Finger>& fingers, Hand& hand) {

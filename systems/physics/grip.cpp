@@ -1,5 +1,7 @@
 #include "systems/physics/grip.hpp"
 
+#include "systems/physics/fingers.hpp"
+
 #include <algorithm>
 
 namespace pt {
@@ -8,11 +10,17 @@ Vec3 held_reaction(const Vertices& verts, const Vec3& gravity, int32_t vertex) {
   return -(verts.force[vertex] + verts.mass[vertex] * gravity);
 }
 
+Vec3 finger_reaction(const Vertices& verts, const Vec3& gravity, const Finger& finger) {
+  Vec3 r = held_reaction(verts, gravity, finger.vertex);
+  for (int32_t v : finger.pad) r += held_reaction(verts, gravity, v);
+  return r;
+}
+
 bool check_grip(const Vertices& verts, const Vec3& gravity, std::vector<Finger>& fingers) {
   bool started = false;
   for (Finger& f : fingers) {
     if (f.vertex < 0 || f.slipping) continue;
-    f.reaction = held_reaction(verts, gravity, f.vertex);
+    f.reaction = finger_reaction(verts, gravity, f);
     const double force = f.reaction.norm();
     if (force > f.grip) {
       f.slipping = true;
@@ -28,14 +36,14 @@ bool check_grip(const Vertices& verts, const Vec3& gravity, std::vector<Finger>&
 void read_reactions(const Vertices& verts, const Vec3& gravity, std::vector<Finger>& fingers) {
   for (Finger& f : fingers) {
     if (f.vertex < 0 || f.slipping) continue;
-    f.reaction = held_reaction(verts, gravity, f.vertex);
+    f.reaction = finger_reaction(verts, gravity, f);
     f.max_force = std::max(f.max_force, std::min(f.reaction.norm(), f.grip));
   }
 }
 
 void read_transient_reactions(const Vertices& verts, const Vec3& gravity, std::vector<Finger>& fingers) {
   for (Finger& f : fingers)
-    if (f.vertex >= 0 && !f.slipping) f.reaction = held_reaction(verts, gravity, f.vertex);
+    if (f.vertex >= 0 && !f.slipping) f.reaction = finger_reaction(verts, gravity, f);
 }
 
 bool grip_exceeded(const std::vector<Finger>& fingers) {
@@ -62,7 +70,8 @@ void slipping_pinches(const Vertices& verts, const std::vector<Finger>& fingers,
   }
 }
 
-bool regrip_slipping_fingers(const Vertices& verts, const std::vector<Vec3>& target_now, std::vector<Finger>& fingers) {
+bool regrip_slipping_fingers(const Vertices& verts, const std::vector<Vec3>& target_now,
+                             const std::vector<Mat3>& rotation_now, std::vector<Finger>& fingers) {
   bool let_go = false;
   for (size_t i = 0; i < fingers.size(); ++i) {
     Finger& f = fingers[i];
@@ -70,13 +79,12 @@ bool regrip_slipping_fingers(const Vertices& verts, const std::vector<Vec3>& tar
     const Vec3 offset = verts.x[f.vertex] - target_now[i];
     f.slipping = false;
     if (offset.norm() > f.reach) {
-      f.vertex = -1;
-      f.released = true;
+      release(f);
       f.let_go = true;
-      f.reaction.setZero();
       let_go = true;
     } else {
       f.hold_offset = offset;
+      reset_pad_offsets(verts, rotation_now[i], f);
     }
   }
   return let_go;

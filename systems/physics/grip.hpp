@@ -19,6 +19,9 @@ namespace pt {
 // forces (`vertex_force`, membrane + bending) and gravity leave unbalanced there.
 Vec3 held_reaction(const Vertices& verts, const Vec3& gravity, int32_t vertex);
 
+// The force finger `finger` applies while it holds: held_reaction summed over its vertex and its pad.
+Vec3 finger_reaction(const Vertices& verts, const Vec3& gravity, const Finger& finger);
+
 // After a substep whose start state's internal forces are in verts.force: each holding finger's reaction;
 // those beyond their grip start slipping (slips + 1). Returns true when one started. max_force records
 // the force each finger applied: a pinch holds at most its grip, so a reading beyond it (the state in which
@@ -45,9 +48,11 @@ void slipping_pinches(const Vertices& verts, const std::vector<Finger>& fingers,
 // The force a slipping finger's pinch applies now (as slipping_pinches sets it), N.
 Vec3 slipping_pinch_force(const Vertices& verts, const Finger& finger, const Vec3& hold_point, double stiffness);
 
-// At a frame's start, with `target_now[i]` finger i's target: a slipping finger holds its vertex again
-// where it is (hold_offset = x − target), or lets go when that is farther than its reach. Returns true
-// when a finger let go.
-bool regrip_slipping_fingers(const Vertices& verts, const std::vector<Vec3>& target_now, std::vector<Finger>& fingers);
+// At a frame's start, with `target_now[i]` finger i's target and `rotation_now[i]` its rotation: a
+// slipping finger holds its vertex again where it is (hold_offset = x − target) and its pad where the paper
+// lies (systems/physics/fingers.hpp), or lets go when that is farther than its reach. Returns true when a
+// finger let go. A slipping finger's pad is not held: the paper slides through the whole pinch.
+bool regrip_slipping_fingers(const Vertices& verts, const std::vector<Vec3>& target_now,
+                             const std::vector<Mat3>& rotation_now, std::vector<Finger>& fingers);
 
 }  // namespace pt

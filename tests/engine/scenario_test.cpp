@@ -218,6 +218,7 @@ const BadCase kBadCases[] = {
     {"wrong_type_name", "name: expected a string, got a number"},
     {"wrong_type_bool", "material.density: expected a number, got a boolean"},
     {"hand_lines_wrong_type", "sheet.hand_lines: expected a boolean, got a number"},
+    {"pad_too_wide", "fingers[1].pad: a pad's radius is 0 (a point) to 0.05 m, not 0.2"},
     {"wrong_length_at", "fingers[0].at: expected an array of 2 numbers, got an array of 1"},
     {"wrong_length_gravity", "sim.gravity: expected an array of 3 numbers, got an array of 2"},
     {"wrong_length_key", "fingers[0].keys[1]: expected a key [t, value], got an array of 3"},

@@ -2,7 +2,10 @@
 // through the pinch; checked on hand-made vertex states against the quasi-static balance.
 #include "systems/physics/grip.hpp"
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+
+#include <numbers>
 
 using namespace pt;
 
@@ -59,7 +62,8 @@ TEST(Grip, RegripsWhereThePaperIsOrLetsGoPastItsReach) {
   // Finger 0's point is 5 mm from its vertex: it holds the vertex where it is, 5 mm off.
   // Finger 1's is 3 cm away: the paper has slid out of the pinch.
   const std::vector<Vec3> targets{Vec3(0.005, 0, 0), Vec3(0.1, 0.03, 0)};
-  EXPECT_TRUE(regrip_slipping_fingers(v, targets, fingers));
+  const std::vector<Mat3> rotations(2, Mat3::Identity());
+  EXPECT_TRUE(regrip_slipping_fingers(v, targets, rotations, fingers));
   EXPECT_FALSE(fingers[0].slipping);
   EXPECT_TRUE(fingers[0].hold_offset.isApprox(Vec3(-0.005, 0, 0)));
   EXPECT_EQ(fingers[0].vertex, 0);
@@ -83,4 +87,25 @@ TEST(Grip, TransientReactionsAreReadButNotHeld) {
   EXPECT_NEAR(fingers[0].max_force, 3, 1e-12);
   EXPECT_FALSE(fingers[0].slipping);
   EXPECT_EQ(fingers[0].slips, 0);
+}
+
+// A pad (systems/physics/fingers.hpp) is one pinch: its force is what its vertices' balances sum to, and
+// that sum is what the grip holds. Two vertices each pulled by 9 N hold 18 N: past a 15 N grip together.
+// A pinch that holds again takes its pad's offsets where the paper is, in the hand's frame.
+TEST(Grip, APadIsOnePinch) {
+  Vertices v = two_vertices();
+  v.force[0] = Vec3(0, -9, 0);
+  v.force[1] = Vec3(0, -9, 0);
+  Finger f = finger_on(0, 15);
+  f.pad = {1};
+  f.pad_offset = {Vec3(0.1, 0, 0)};
+  EXPECT_TRUE(finger_reaction(v, Vec3::Zero(), f).isApprox(Vec3(0, 18, 0)));
+  std::vector<Finger> fingers{f};
+  EXPECT_TRUE(check_grip(v, Vec3::Zero(), fingers));
+  EXPECT_TRUE(fingers[0].slipping);
+  // Holding again after a quarter turn about z: the pad's vertex, +x of the finger's, is −y in the hand's frame.
+  const Mat3 quarter = Eigen::AngleAxisd(std::numbers::pi / 2, Vec3::UnitZ()).toRotationMatrix();
+  EXPECT_FALSE(regrip_slipping_fingers(v, {Vec3::Zero()}, {quarter}, fingers));
+  EXPECT_TRUE(fingers[0].pad_offset[0].isApprox(Vec3(0, -0.1, 0), 1e-12));
+  EXPECT_TRUE((quarter * fingers[0].pad_offset[0]).isApprox(v.x[1] - v.x[0], 1e-12));
 }

@@ -173,6 +173,8 @@ def main():
         (["sim", "gravity"], [0, 0, -10001], None, None),
         (["sim", "frames"], 2.5, None, None),
         (["fingers", 0, "grip"], 10001, None, None),
+        (["fingers", 0, "pad"], 0.051, None, None),
+        (["fingers", 0, "pad"], -0.001, None, None),
         (["fingers", 0, "release"], 0, None, None),
         (["fingers", 0, "attach"], -1, None, None),
         (["fingers", 0, "name"], "", None, None),
@@ -210,6 +212,7 @@ def main():
         (["material", "fiber_seed"], 18446744073709551615, None, None),
         (["fingers", 0, "release"], 1e-3, None, None),
         (["fingers", 0, "grip"], 10000, None, None),
+        (["fingers", 0, "pad"], 0.05, None, None),
         (["sheet"], {"preset": "A3"}, None, None),
         (["hands"], [{"name": "h", "fingers": ["A"], "keys": [[0, {"axis": [0, 0, -2]}]]}], None, None),
     ]
