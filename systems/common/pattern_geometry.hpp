@@ -7,6 +7,9 @@
 
 namespace pt {
 
+// The z component of the cross product of two pattern vectors: > 0 when b is counter-clockwise of a.
+inline double cross(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+
 // Squared distance from p to the segment [a, b] (a point when a = b); `t_out`, if given, receives the
 // parameter in [0, 1] of the closest point a + t (b − a).
 inline double point_segment_distance2(const Vec2& p, const Vec2& a, const Vec2& b, double* t_out = nullptr) {

@@ -2,6 +2,7 @@
 // in a uniform grid, and Dijkstra over the visibility graph of the reflex boundary vertices.
 #include "systems/tearing/pattern_paths.hpp"
 
+#include "systems/common/pattern_geometry.hpp"
 #include "systems/common/topology.hpp"
 
 #include <algorithm>
@@ -14,8 +15,6 @@ namespace {
 
 constexpr double kTwoPi = 2 * std::numbers::pi;
 constexpr int32_t kMaxCellsPerSide = 4096;
-
-double cross(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 
 // Counter-clockwise angle from a to b in [0, 2π).
 double ccw_angle(const Vec2& a, const Vec2& b) {

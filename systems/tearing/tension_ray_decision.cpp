@@ -1,5 +1,6 @@
 #include "systems/tearing/tension_ray_decision.hpp"
 
+#include "systems/common/pattern_geometry.hpp"
 #include "systems/common/topology.hpp"
 #include "systems/tearing/clustering.hpp"
 
@@ -44,6 +45,31 @@ void finish_decision(const Sheet& sheet, int32_t p, const PropagationParams& pro
     d.propagate = false;
     d.next = Vec2::Zero();
   }
+}
+
+// The world image of pattern direction `dir` at p, through the triangle of p's fan that the pattern
+// direction `ahead` runs into from p (the material a tear along it cuts next; the nearest by angle when
+// none contains it): F = [x1 − x0, x2 − x0] · rest_inv. A fan's mean F is no frame at a tip whose lips
+// fold opposite ways.
+Vec3 world_direction_ahead(const Sheet& sheet, int32_t p, const Vec2& ahead, const Vec2& dir) {
+  const auto& rest = sheet.verts.rest;
+  int32_t best = -1;
+  double best_gap = std::numeric_limits<double>::infinity();
+  for (const int32_t t : sheet.topo.fan(p)) {
+    const Tri& c = sheet.tris.tri[t];
+    const int k = c[0] == p ? 0 : (c[1] == p ? 1 : 2);
+    const Vec2 e1 = rest[c[(k + 1) % 3]] - rest[p], e2 = rest[c[(k + 2) % 3]] - rest[p];
+    const double wedge = std::atan2(cross(e1, e2), e1.dot(e2));
+    const double at = std::atan2(cross(e1, ahead), e1.dot(ahead));
+    const double gap = at >= 0 && at <= wedge ? 0.0 : std::min(std::abs(at), std::abs(at - wedge));
+    if (gap < best_gap) best_gap = gap, best = t;
+  }
+  if (best < 0) return Vec3::Zero();
+  const Tri& c = sheet.tris.tri[best];
+  const auto& x = sheet.verts.x;
+  Eigen::Matrix<double, 3, 2> edges;
+  edges << x[c[1]] - x[c[0]], x[c[2]] - x[c[0]];
+  return edges * (sheet.tris.rest_inv[best] * dir);
 }
 
 bool inward_corner(const Sheet& sheet, int32_t p) {
@@ -104,6 +130,13 @@ PropagationDecision decide_by_tension_rays(const Sheet& sheet, int32_t p, double
   if (rays.left_count == 0 || rays.right_count == 0) return d;
   d.angle = rays.theta;
   d.energy_release = rays.energy_release;
+  // The sides pushed together in the plane open nothing (sensed_energy_release): "apart" is the left
+  // normal of the split line b, where the left side's loads lie, seen in the material ahead of p.
+  if (rays.direction.squaredNorm() > 0)
+    d.energy_release = sensed_energy_release(
+        rays, rp.normal,
+        world_direction_ahead(sheet, p, rays.direction, Vec2(-rays.bisector.y(), rays.bisector.x())),
+        rp.thickness);
   d.griffith = std::isfinite(d.energy_release) && d.energy_release >= fracture_energy;
   if (!d.griffith) return d;
   if (is_start && !(start_wrap_excess(sheet, rays, scratch.loads, scratch) <= params.start_wrap)) {

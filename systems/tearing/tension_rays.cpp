@@ -2,7 +2,10 @@
 // pattern, and O'Keefe's bisector rule for the tear direction.
 #include "systems/tearing/tension_rays.hpp"
 
+#include "systems/common/pattern_geometry.hpp"
 #include "systems/common/topology.hpp"
+
+#include <Eigen/Geometry>
 
 #include <cmath>
 #include <numbers>
@@ -11,8 +14,6 @@ namespace pt {
 namespace {
 
 constexpr double kTwoPi = 2 * std::numbers::pi;
-
-double cross(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 
 double ccw_angle(const Vec2& a, const Vec2& b) {
   double angle = std::atan2(cross(a, b), a.dot(b));
@@ -237,6 +238,7 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
   out.theta = std::atan2(std::abs(cross(ul, ur)), ul.dot(ur));
   out.opening_force = (s.left_pull - s.right_pull).norm();
   const Vec3 open = s.left_pull - s.right_pull;
+  out.opening = open;
   const double across = params.normal.squaredNorm() > 0 ? open.dot(params.normal) : 0.0;
   const double along = (open - across * params.normal).norm() * std::cos(0.5 * out.theta);
   out.energy_release = std::sqrt(across * across + along * along) / params.thickness;
@@ -265,6 +267,17 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
   }
   out.valid = true;
   out.status = TensionRaysStatus::Valid;
+}
+
+double sensed_energy_release(const TensionRays& rays, const Vec3& normal, const Vec3& apart, double thickness) {
+  const Vec3 a = (apart - apart.dot(normal) * normal).normalized();
+  if (!a.allFinite() || !(a.squaredNorm() > 0.5)) return rays.energy_release;
+  const Vec3 h = normal.cross(a);
+  const Vec3& d = rays.opening;
+  const double across = d.dot(normal);
+  const double pull = std::max(0.0, d.dot(a)), shear = d.dot(h);
+  const double c = std::cos(0.5 * rays.theta);
+  return std::sqrt(across * across + c * c * (pull * pull + shear * shear)) / thickness;
 }
 
 }  // namespace pt

@@ -81,6 +81,7 @@ struct TensionRays {
   // virtual fingers, so two fingers on one side pulling along different paths add up.
   double left_force = 0, right_force = 0;
   double opening_force = 0;        // ‖Σ_left R_j − Σ_right R_j‖: what pulls the two sides apart, N
+  Vec3 opening = Vec3::Zero();     // Σ_left R_j − Σ_right R_j = P_L − P_R, N
   int32_t left_count = 0, right_count = 0;
   Vec2 left_direction = Vec2::Zero(), right_direction = Vec2::Zero();  // u_L, u_R (unit)
   double energy_release = 0;       // Er = ‖P_L − P_R‖ cos(θ/2) / e, J/m²
@@ -111,5 +112,15 @@ struct TensionRaysScratch {
 void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32_t>& piece, const Topology& topo,
                           int32_t p, std::span<const LoadPoint> loads, const TensionRaysParams& params,
                           TensionRaysScratch& scratch, TensionRays& out);
+
+// Er of `rays` with the sense of the pull in the sheet's plane (docs/tearing.md, "Direction and Er"). The
+// in-plane part of Δ = P_L − P_R splits along `apart`, the direction in which the left side moves away from
+// the tear's line (in the sheet's plane at p, whose unit normal is `normal`), and along that line. Pushing
+// the two sides together closes the tear, so only a pull apart counts; the pull along the line (a shear)
+// counts whatever its sense:
+//   Er = sqrt((Δ·n)² + cos²(θ/2) (max(0, Δ·a)² + (Δ·h)²)) / e,
+// a = `apart` made a unit vector in the plane, h = n × a. Where Δ·a ≥ 0 it equals compute_tension_rays'
+// Er. `apart` (any length) parallel to the normal or zero leaves that Er.
+double sensed_energy_release(const TensionRays& rays, const Vec3& normal, const Vec3& apart, double thickness);
 
 }  // namespace pt

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 
 using namespace pt;
@@ -112,4 +114,33 @@ TEST(TensionRayDecision, LegsPulledTheSameWayDoNotTear) {
       decide_by_tension_rays(s, tip, 2e4, false, propagation(), MembraneParams{}, TensionRayDecisionParams{}, scratch);
   EXPECT_TRUE(apart.propagate);
   EXPECT_NEAR(apart.energy_release, 20.0 / kThickness, 1e-6);
+}
+
+// The same trouser with its legs pushed or pulled in the sheet's plane (sensed_energy_release): pulled
+// apart (the left leg to the left) the tear opens, Er = (F_L + F_R)/e as out of the plane; pushed together,
+// the same forces with the opposite sense close it and release nothing. The decision reads the sense in the
+// material ahead of the tip, so a rigid motion of the whole sheet changes nothing.
+TEST(TensionRayDecision, LegsPushedTogetherInThePlaneDoNotTear) {
+  const Sheet flat = slit_grid(0.2, 0.15, 10, 6, {{5, 3}});
+  const Eigen::Matrix3d turn = Eigen::AngleAxisd(0.9, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  for (const bool turned : {false, true}) {
+    Sheet s = flat;
+    const Mat3 r = turned ? turn : Mat3::Identity();
+    for (Vec3& x : s.verts.x) x = r * x;
+    const int32_t tip = vertex_at(s, Vec2(0.1, 0.075));
+    hold(s, Vec2(0.1, 0), Vec2(-1, 0.1), 10.0, true);
+    hold(s, Vec2(0.1, 0), Vec2(1, 0.1), 10.0, true);
+    auto decide = [&](double sense) {
+      s.fingers[0].reaction = r * Vec3(-sense * 10.0, 0, 0);  // the left leg (x < 0.1)
+      s.fingers[1].reaction = r * Vec3(sense * 10.0, 0, 0);
+      TensionRayDecisionScratch scratch;
+      return decide_by_tension_rays(s, tip, 2e4, false, propagation(), MembraneParams{}, TensionRayDecisionParams{},
+                                    scratch);
+    };
+    const PropagationDecision apart = decide(1), together = decide(-1);
+    EXPECT_TRUE(apart.propagate) << "turned " << turned;
+    EXPECT_NEAR(apart.energy_release, 20.0 / kThickness, 1e-6) << "turned " << turned;
+    EXPECT_FALSE(together.griffith) << "turned " << turned;
+    EXPECT_NEAR(together.energy_release, 0, 1e-6) << "turned " << turned;
+  }
 }

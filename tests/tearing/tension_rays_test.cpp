@@ -58,6 +58,18 @@ TensionRays rays_at(const Sheet& s, int32_t p, const std::vector<Load>& loads,
   return out;
 }
 
+// The rays at p for two loads, at A (pulled by `left_pull`) and B, with the sheet's normal.
+TensionRays two_pulls(const Sheet& s, int32_t p, const Vec2& A, const Vec3& left_pull, const Vec2& B, const Vec3& right_pull,
+                      const Vec3& normal) {
+  const std::vector<LoadPoint> loads = {{vertex_at(s, A), left_pull}, {vertex_at(s, B), right_pull}};
+  TensionRaysParams rp = params();
+  rp.normal = normal;
+  TensionRaysScratch scratch;
+  TensionRays out;
+  compute_tension_rays(s.verts.rest, s.tris.piece, s.topo, p, loads, rp, scratch, out);
+  return out;
+}
+
 // The tangent at P of the hyperbola |PA| − |PB| = const, away from the foci: orthogonal to the gradient
 // of |PA| − |PB|, which is unit(P − A) − unit(P − B).
 Vec2 hyperbola_tangent(const Vec2& P, const Vec2& A, const Vec2& B) {
@@ -335,12 +347,7 @@ TEST(TensionRays, PullsAcrossTheSheetReleaseAsATrousersLegs) {
   const Vec2 A(0.05, 0.03), B(0.15, 0.03);
   const double theta = angle_at(kSlitTip, A, B);  // 2 atan(5/3) ≈ 118°
   auto er = [&](const Vec3& left_pull, const Vec3& right_pull, const Vec3& normal) {
-    const std::vector<LoadPoint> loads = {{vertex_at(s, A), left_pull}, {vertex_at(s, B), right_pull}};
-    TensionRaysParams rp = params();
-    rp.normal = normal;
-    TensionRaysScratch scratch;
-    TensionRays out;
-    compute_tension_rays(s.verts.rest, s.tris.piece, s.topo, p, loads, rp, scratch, out);
+    const TensionRays out = two_pulls(s, p, A, left_pull, B, right_pull, normal);
     EXPECT_TRUE(out.valid) << int(out.status);
     EXPECT_NEAR(out.theta, theta, 1e-12);
     return out.energy_release * kThickness;  // N
@@ -357,6 +364,39 @@ TEST(TensionRays, PullsAcrossTheSheetReleaseAsATrousersLegs) {
   // Both: the parts add as orthogonal vectors.
   EXPECT_NEAR(er(0.7 * a + 0.3 * up, 0.4 * b - 0.2 * up, up),
               std::hypot(0.5, (0.7 * a - 0.4 * b).norm() * std::cos(theta / 2)), 1e-12);
+}
+
+// sensed_energy_release: of the in-plane part of P_L − P_R only a pull apart counts, not a push together;
+// the part along the tear's line (a shear) and the part across the sheet count whatever their sense.
+TEST(TensionRays, OnlyAPullApartOpensInThePlane) {
+  const Sheet s = one_slit();
+  const int32_t p = vertex_at(s, kSlitTip);
+  const Vec2 A(0.05, 0.03), B(0.15, 0.03);
+  const Vec3 a = Vec3(A.x() - kSlitTip.x(), A.y() - kSlitTip.y(), 0).normalized();
+  const Vec3 b = Vec3(B.x() - kSlitTip.x(), B.y() - kSlitTip.y(), 0).normalized();
+  const Vec3 up(0, 0, 1);
+  auto rays = [&](const Vec3& left_pull, const Vec3& right_pull) { return two_pulls(s, p, A, left_pull, B, right_pull, up); };
+  const TensionRays pull = rays(0.7 * a, 0.4 * b);
+  ASSERT_TRUE(pull.valid);
+  const Vec2 left2(-pull.bisector.y(), pull.bisector.x());
+  ASSERT_GT(left2.dot(A - kSlitTip), 0) << "A's side is the left";
+  const Vec3 left(left2.x(), left2.y(), 0), along(pull.bisector.x(), pull.bisector.y(), 0);
+  const double c = std::cos(pull.theta / 2);
+  // Pulled apart: as compute_tension_rays reads it.
+  EXPECT_NEAR(sensed_energy_release(pull, up, left, kThickness), pull.energy_release, 1e-9);
+  EXPECT_NEAR(sensed_energy_release(pull, up, left, kThickness) * kThickness, (0.7 * a - 0.4 * b).norm() * c, 1e-12);
+  // Pushed together by the same forces: only their part along the line is left.
+  const TensionRays push = rays(-0.7 * a, -0.4 * b);
+  EXPECT_NEAR(push.energy_release, pull.energy_release, 1e-9) << "without the sense they read the same";
+  EXPECT_NEAR(sensed_energy_release(push, up, left, kThickness) * kThickness,
+              std::abs((0.7 * a - 0.4 * b).dot(along)) * c, 1e-12);
+  // Across the sheet, whatever the in-plane sense: the parts add as orthogonal vectors.
+  const TensionRays lift = rays(-0.7 * a + 0.3 * up, -0.4 * b - 0.2 * up);
+  EXPECT_NEAR(sensed_energy_release(lift, up, left, kThickness) * kThickness,
+              std::hypot(0.5, (0.7 * a - 0.4 * b).dot(along) * c), 1e-12);
+  // No sense given (zero, or along the normal): compute_tension_rays' Er.
+  EXPECT_EQ(sensed_energy_release(push, up, Vec3::Zero(), kThickness), push.energy_release);
+  EXPECT_EQ(sensed_energy_release(push, up, up, kThickness), push.energy_release);
 }
 
 // θ = π: opposite in-plane pulls release nothing and give no direction.
