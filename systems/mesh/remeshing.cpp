@@ -657,7 +657,8 @@ std::vector<std::pair<int32_t, int32_t>> remove_straight_start(const CutStart& s
   std::vector<std::pair<int32_t, int32_t>> removed;  // (vertex, vertex it merged into)
   const double turn = std::atan2(std::abs(cross2(previous_direction, d0)), previous_direction.dot(d0));
   bool held = false;
-  for (const Finger& f : C.S.fingers) held = held || f.vertex == p;
+  for (const Finger& f : C.S.fingers)
+    held = held || f.vertex == p || std::find(f.pad.begin(), f.pad.end(), p) != f.pad.end();
   if (previous_direction.squaredNorm() > 0 && d0.squaredNorm() > 0 && turn <= params.split_angle && !held) {
     // Removing p from both lips keeps the area only when both lips come back along the same line, i.e. the
     // back neighbours are the two copies of the previous tear vertex: each lip's boundary a–p–b becomes the
@@ -852,7 +853,19 @@ CutResult cut_tear_segment(int32_t p, const Vec2& next, const Vec2& previous_dir
   const VertexCompaction vc = compact_removed_vertices(removed, sheet.verts);
   const LocalTopologyChange change = rename_moved_vertices(C, tc, vc, reached_boundary, sheet.tris);
 
-  for (Finger& f : sheet.fingers) f.vertex = remapped_vertex(vc, f.vertex);
+  for (Finger& f : sheet.fingers) {
+    f.vertex = remapped_vertex(vc, f.vertex);
+    // A pad's vertices are held, so never removed (remove_straight_start); a −1 would be dropped.
+    size_t kept = 0;
+    for (size_t j = 0; j < f.pad.size(); ++j) {
+      const int32_t v = remapped_vertex(vc, f.pad[j]);
+      if (v < 0) continue;
+      f.pad[kept] = v;
+      f.pad_offset[kept++] = f.pad_offset[j];
+    }
+    f.pad.resize(kept);
+    f.pad_offset.resize(kept);
+  }
   for (Tip& tp : sheet.tips) tp.vertex = remapped_vertex(vc, tp.vertex);
   if (topo == &sheet.topo) refresh_after_local_change(change, sheet);
   else refresh_after_topology_change(sheet);
