@@ -417,38 +417,41 @@ TEST(Remeshing, FingerAndTipIdsFollowRemovedVertices) {
 }
 
 // A pad's vertices (systems/physics/fingers.hpp) are held like a finger's: ids that swap-remove moves follow
-// with their offsets, and a straight continuation keeps a tip that a pad holds.
-TEST(Remeshing, PadVerticesFollowRemovedVerticesAndStay) {
-  {
-    Sheet s = make_grid(8, 8, 0.15, 21);
-    const Vec2 d = Vec2(-0.05, -1).normalized();
-    const int32_t p = notch_vertex(8, 8);
-    const CutResult r1 = cut_tear_segment(p, s.verts.rest[p] + 0.04 * d, Vec2::Zero(), 0, RemeshParams{}, s);
-    ASSERT_TRUE(r1.cut);
-    const int32_t n = s.verts.size();
-    Finger f;
-    f.vertex = 3;
-    f.pad = {n - 1, n - 2, n - 3, 60};
-    f.pad.erase(std::remove(f.pad.begin(), f.pad.end(), r1.tip_vertex), f.pad.end());
-    std::vector<Vec2> pad_rest;
-    for (size_t j = 0; j < f.pad.size(); ++j) {
-      f.pad_offset.push_back(Vec3(double(j), 0, 0));
-      pad_rest.push_back(s.verts.rest[f.pad[j]]);
-    }
-    s.fingers.push_back(f);
-    s.tips.push_back(Tip{r1.tip_vertex, 0, d});
-    const CutResult r2 = cut_tear_segment(r1.tip_vertex, r1.end + 0.04 * d, d, 0, RemeshParams{}, s);
-    ASSERT_TRUE(r2.cut);
-    EXPECT_EQ(r2.removed_vertices, 2);
-    const Finger& g = s.fingers[0];
-    ASSERT_EQ(g.pad.size(), pad_rest.size());
-    for (size_t j = 0; j < g.pad.size(); ++j) {
-      ASSERT_LT(g.pad[j], s.verts.size());
-      EXPECT_EQ(s.verts.rest[g.pad[j]], pad_rest[j]) << j;
-      EXPECT_EQ(g.pad_offset[j], Vec3(double(j), 0, 0)) << j;
-    }
+// with their offsets (and HeldTipIsNotRemoved: a straight continuation keeps a tip that a pad holds).
+TEST(Remeshing, PadVerticesFollowRemovedVertices) {
+  Sheet s = make_grid(8, 8, 0.15, 21);
+  const Vec2 d = Vec2(-0.05, -1).normalized();
+  const int32_t p = notch_vertex(8, 8);
+  const CutResult r1 = cut_tear_segment(p, s.verts.rest[p] + 0.04 * d, Vec2::Zero(), 0, RemeshParams{}, s);
+  ASSERT_TRUE(r1.cut);
+  const int32_t n = s.verts.size();
+  Finger f;
+  f.vertex = 3;
+  f.pad = {n - 1, n - 2, n - 3, 60};
+  f.pad.erase(std::remove(f.pad.begin(), f.pad.end(), r1.tip_vertex), f.pad.end());
+  std::vector<Vec2> pad_rest;
+  for (size_t j = 0; j < f.pad.size(); ++j) {
+    f.pad_offset.push_back(Vec3(double(j), 0, 0));
+    pad_rest.push_back(s.verts.rest[f.pad[j]]);
   }
-  {
+  s.fingers.push_back(f);
+  s.tips.push_back(Tip{r1.tip_vertex, 0, d});
+  const CutResult r2 = cut_tear_segment(r1.tip_vertex, r1.end + 0.04 * d, d, 0, RemeshParams{}, s);
+  ASSERT_TRUE(r2.cut);
+  EXPECT_EQ(r2.removed_vertices, 2);
+  const Finger& g = s.fingers[0];
+  ASSERT_EQ(g.pad.size(), pad_rest.size());
+  for (size_t j = 0; j < g.pad.size(); ++j) {
+    ASSERT_LT(g.pad[j], s.verts.size());
+    EXPECT_EQ(s.verts.rest[g.pad[j]], pad_rest[j]) << j;
+    EXPECT_EQ(g.pad_offset[j], Vec3(double(j), 0, 0)) << j;
+  }
+}
+
+// A finger holds the tip, by its own vertex or its pad's: a straight continuation keeps it (a held vertex
+// must not disappear), and the finger stays on the original id at the same place.
+TEST(Remeshing, HeldTipIsNotRemoved) {
+  for (const bool by_pad : {false, true}) {  // the finger's own vertex, or one of its pad's
     Sheet s = make_grid(8, 8, 0.1, 8);
     const double area = total_rest_area(s.tris);
     const Vec2 d = Vec2(0.05, -1).normalized();
@@ -456,39 +459,19 @@ TEST(Remeshing, PadVerticesFollowRemovedVerticesAndStay) {
     const CutResult r1 = cut_tear_segment(p, s.verts.rest[p] + 0.03 * d, Vec2::Zero(), 0, RemeshParams{}, s);
     ASSERT_TRUE(r1.cut);
     Finger f;
-    f.vertex = 3;
-    f.pad = {r1.tip_vertex};
-    f.pad_offset = {Vec3::Zero()};
+    f.vertex = by_pad ? 3 : r1.tip_vertex;
+    if (by_pad) f.pad = {r1.tip_vertex}, f.pad_offset = {Vec3::Zero()};
     s.fingers.push_back(f);
     const Vec2 held = s.verts.rest[r1.tip_vertex];
     const CutResult r2 = cut_tear_segment(r1.tip_vertex, r1.end + 0.03 * d, d, 0, RemeshParams{}, s);
     ASSERT_TRUE(r2.cut);
     expect_valid_after_cut(s, area, r2, 0);
-    EXPECT_EQ(r2.removed_vertices, 0);
-    EXPECT_EQ(s.verts.rest[s.fingers[0].pad[0]], held);
+    EXPECT_EQ(r2.removed_vertices, 0) << by_pad;
+    const int32_t now = by_pad ? s.fingers[0].pad[0] : s.fingers[0].vertex;
+    EXPECT_EQ(now, r1.tip_vertex) << by_pad;
+    EXPECT_EQ(s.verts.rest[now], held) << by_pad;
+    EXPECT_EQ(count_at(s, held), 2) << by_pad;
   }
-}
-
-// A finger holds the tip: a straight continuation keeps it (the finger's vertex must not disappear), and
-// the finger stays on the original id at the same place.
-TEST(Remeshing, HeldTipIsNotRemoved) {
-  Sheet s = make_grid(8, 8, 0.1, 8);
-  const double area = total_rest_area(s.tris);
-  const Vec2 d = Vec2(0.05, -1).normalized();
-  const int32_t p = notch_vertex(8, 8);
-  const CutResult r1 = cut_tear_segment(p, s.verts.rest[p] + 0.03 * d, Vec2::Zero(), 0, RemeshParams{}, s);
-  ASSERT_TRUE(r1.cut);
-  Finger f;
-  f.vertex = r1.tip_vertex;
-  s.fingers.push_back(f);
-  const Vec2 held = s.verts.rest[r1.tip_vertex];
-  const CutResult r2 = cut_tear_segment(r1.tip_vertex, r1.end + 0.03 * d, d, 0, RemeshParams{}, s);
-  ASSERT_TRUE(r2.cut);
-  expect_valid_after_cut(s, area, r2, 0);
-  EXPECT_EQ(r2.removed_vertices, 0);
-  EXPECT_EQ(s.fingers[0].vertex, r1.tip_vertex);
-  EXPECT_EQ(s.verts.rest[s.fingers[0].vertex], held);
-  EXPECT_EQ(count_at(s, held), 2);
 }
 
 TEST(Remeshing, RandomTearSequencesKeepInvariants) {
