@@ -3,12 +3,12 @@
 force, the largest in-plane strain and the finger slips, one line each.
 
   tools/paper_check.py [--bin build/bin/papertear] [--set KEY=VALUE]... [--triangles N]... [--seeds N]
-                       [--summary] [SCENARIO...]
+                       [--pad R] [--summary] [SCENARIO...]
 
 Without SCENARIO it runs every file of scenarios/. With several --triangles it runs each scenario at each
 mesh density (the mesh-independence check of finger forces). --seeds N runs each on N meshes of the same
 density (sheet.mesh_seed 0..N-1, the meshing frame turned 17 degrees per seed, as papertear-path-claims
-does). --summary prints, instead of a line per run, one line per scenario over its meshes (min / median /
+does). --pad R gives every finger of every scenario a pad of radius R (m). --summary prints, instead of a line per run, one line per scenario over its meshes (min / median /
 max) and then how many runs break each of the paper checks: a passive scene (pushed, bent or waved: it
 must not tear) holding more than 0.3 N or tearing, a tearing scene peaking above 5 N, a finger slipping,
 max_strain above 2%, and above 2% beyond 5 mm of the tear tips (max_strain_beyond_tips). The "run cm"
@@ -36,6 +36,20 @@ def run(binary, path, settings, out):
         return json.load(f)
 
 
+def with_pads(files, radius, folder):
+    """Copies of the scenario files in `folder` with "pad": radius on every finger (docs/physics.md, "Pads")."""
+    copies = []
+    for f in files:
+        with open(f) as src:
+            d = json.load(src)
+        for finger in d.get("fingers", []):
+            finger["pad"] = radius
+        copies.append(os.path.join(folder, os.path.basename(f)))
+        with open(copies[-1], "w") as dst:
+            json.dump(d, dst)
+    return copies
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--bin", default=os.path.join(ROOT, "build/bin/papertear"))
@@ -44,10 +58,13 @@ def main():
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--seeds", type=int, default=0)
     ap.add_argument("--summary", action="store_true")
+    ap.add_argument("--pad", type=float, default=None, help="give every finger this pad radius, m")
     ap.add_argument("scenarios", nargs="*")
     a = ap.parse_args()
     files = a.scenarios or sorted(os.path.join(ROOT, "scenarios", f) for f in os.listdir(os.path.join(ROOT, "scenarios"))
                                   if f.endswith(".json") and f != "a4-10k-patch.json")
+    if a.pad is not None:
+        files = with_pads(files, a.pad, tempfile.mkdtemp(prefix="paper-check-pads-"))
     jobs = []
     for f in files:
         for n in a.triangles or [None]:
