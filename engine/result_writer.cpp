@@ -443,9 +443,12 @@ void write_svg(const Simulation& sim, const std::string& path) {
   }
   s += "</g>\n";
 
-  // Fingers: red dots with their names.
+  // Fingers: red dots with their names, a pad's disc as a red ring.
   s += "<g id=\"fingers\" fill=\"#e00000\" font-family=\"sans-serif\" font-size=\"" + std::to_string(font) + "\">\n";
   for (const Finger& f : sheet.fingers) {
+    if (f.vertex >= 0 && f.pad_radius > 0)
+      appendf(s, "<circle class=\"pad\" cx=\"%.3f\" cy=\"%.3f\" r=\"%.3f\" fill=\"none\" stroke=\"#e00000\" stroke-width=\"%.4f\"/>",
+              X(f.uv), Y(f.uv), finite_or_zero(f.pad_radius * 1000.0), line);
     appendf(s, "<circle cx=\"%.3f\" cy=\"%.3f\" r=\"%.3f\"/>", X(f.uv), Y(f.uv), dot);
     appendf(s, "<text x=\"%.3f\" y=\"%.3f\">", X(f.uv) + 1.3 * dot, Y(f.uv) - 1.3 * dot);
     s += xml_escape(f.name) + "</text>\n";

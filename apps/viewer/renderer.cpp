@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <string>
 
 namespace pt::viewer {
@@ -777,6 +778,19 @@ void Renderer::prepare_pattern(const Simulation& sim, int w, int h, const std::v
       put(line_data_, path[k - 1], tear_col);
       put(line_data_, path[k], tear_col);
     }
+  }
+  // A pad's disc (systems/physics/fingers.hpp) as a ring in its finger's colour.
+  for (int i = 0; i < static_cast<int>(s.fingers.size()); ++i) {
+    const Finger& f = s.fingers[i];
+    if (f.vertex < 0 || !(f.pad_radius > 0)) continue;
+    const bool sel = std::find(selected.begin(), selected.end(), i) != selected.end();
+    const Vec3 col = sel ? Vec3(1.0, 0.8, 0.1) : Vec3(0.9, 0.08, 0.08);
+    constexpr int kSegments = 32;
+    for (int k = 0; k < kSegments; ++k)
+      for (const int e : {k, k + 1}) {
+        const double a = 2 * std::numbers::pi * e / kSegments;
+        put(line_data_, f.uv + f.pad_radius * Vec2(std::cos(a), std::sin(a)), col);
+      }
   }
   const size_t line_count = line_data_.size() / 6;
   // Points: candidates, tear tips, fingers (drawn last, largest).

@@ -1,6 +1,7 @@
 // The engine's frame (docs/architecture.md "The frame") seen from outside: after every step the sheet is
 // in the state the graph's order leaves it, and each sim.relaxation mode does what docs/scenario-format.md
 // promises. Everything is checked against what the systems compute from the sheet itself, not a hash.
+#include "engine/result_writer.hpp"
 #include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "engine/simulation_internals.hpp"
@@ -12,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <fstream>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -333,4 +335,22 @@ TEST(Simulation, APadKeepsItsPaperThroughCuts) {
     EXPECT_FALSE(sim.sheet().tears.empty()) << "seed " << seed;
     for (const std::string& v : sim.invariant_violations()) ADD_FAILURE() << v;
   }
+}
+
+// The pattern SVG draws a pad's disc: a ring of its radius (1 000 units a metre) around the finger's dot.
+TEST(Simulation, ThePatternShowsAPadsDisc) {
+  Simulation sim(turned_strip(0.006), one_thread());
+  const std::string path = testing::TempDir() + "pad-pattern.svg";
+  write_svg(sim, path);
+  std::ifstream in(path);
+  const std::string svg((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t ring = svg.find("<circle class=\"pad\"");
+  ASSERT_NE(ring, std::string::npos);
+  EXPECT_NE(svg.find("r=\"6.000\"", ring), std::string::npos);
+  EXPECT_EQ(svg.find("<circle class=\"pad\"", ring + 1), std::string::npos) << "one finger, one ring";
+  Simulation point(turned_strip(0), one_thread());
+  write_svg(point, path);
+  std::ifstream again(path);
+  const std::string plain((std::istreambuf_iterator<char>(again)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(plain.find("class=\"pad\""), std::string::npos) << "a point has no ring";
 }
