@@ -299,9 +299,7 @@ struct Simulation::Impl {
     attach_and_release(time_at(frame));
     targets_begin.clear();
     for (const Finger& f : sheet.fingers) targets_begin.push_back(f.target);
-    pad_rotations.clear();
-    for (size_t i = 0; i < sheet.fingers.size(); ++i) pad_rotations.push_back(rotation_at(i, 0));
-    if (regrip_slipping_fingers(sheet.verts, targets_begin, pad_rotations, sheet.fingers)) refresh_role_flags();
+    regrip_at(0);
     update_finger_targets(time_at(frame + 1), sheet.hands, sheet.fingers);
   }
 
@@ -546,6 +544,17 @@ struct Simulation::Impl {
                     sheet.material, fiber, candidates, fiber_cache);
   }
 
+  // Slipping fingers hold again at fraction alpha of the frame's motion (systems/physics/grip.hpp).
+  void regrip_at(double alpha) {
+    hold_points.clear();
+    pad_rotations.clear();
+    for (size_t i = 0; i < sheet.fingers.size(); ++i) {
+      hold_points.push_back(target_at(i, alpha));
+      pad_rotations.push_back(rotation_at(i, alpha));
+    }
+    if (regrip_slipping_fingers(sheet.verts, hold_points, pad_rotations, sheet.fingers)) refresh_role_flags();
+  }
+
   void refresh_role_flags() { pt::refresh_role_flags(sheet.fingers, sheet.tips, sheet.verts.flags); }
 
   // Fig. 4 step 4 after a cut: an extra substep of the whole sheet or a substep of the patch around the
@@ -553,13 +562,7 @@ struct Simulation::Impl {
   // where the physics stopped (physics_alpha): the relaxation lets the lips open, it does not move the hands.
   void relax_after_cut(int32_t tear_id) {
     // A slipping finger holds again where it is: the cut may have relieved the pull that made it slip.
-    hold_points.clear();
-    pad_rotations.clear();
-    for (size_t i = 0; i < sheet.fingers.size(); ++i) {
-      hold_points.push_back(target_at(i, physics_alpha));
-      pad_rotations.push_back(rotation_at(i, physics_alpha));
-    }
-    if (regrip_slipping_fingers(sheet.verts, hold_points, pad_rotations, sheet.fingers)) refresh_role_flags();
+    regrip_at(physics_alpha);
     if (relaxation == Relaxation::Patch) {
       std::vector<int32_t> held;
       std::vector<Vec3> target;

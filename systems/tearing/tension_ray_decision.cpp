@@ -50,7 +50,8 @@ void finish_decision(const Sheet& sheet, int32_t p, const PropagationParams& pro
 // The world image of pattern direction `dir` at p, through the triangle of p's fan that the pattern
 // direction `ahead` runs into from p (the material a tear along it cuts next; the nearest by angle when
 // none contains it): F = [x1 − x0, x2 − x0] · rest_inv. A fan's mean F is no frame at a tip whose lips
-// fold opposite ways.
+// fold opposite ways. (membrane_forces.hpp's deformation_gradient times dir rounds differently, as
+// (Ds rest_inv) dir, and that rounding moves a run of the 4-mesh checks: Ds (rest_inv dir) is kept.)
 Vec3 world_direction_ahead(const Sheet& sheet, int32_t p, const Vec2& ahead, const Vec2& dir) {
   const auto& rest = sheet.verts.rest;
   int32_t best = -1;

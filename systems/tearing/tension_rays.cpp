@@ -236,9 +236,9 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
   out.left_direction = ul;
   out.right_direction = ur;
   out.theta = std::atan2(std::abs(cross(ul, ur)), ul.dot(ur));
-  out.opening_force = (s.left_pull - s.right_pull).norm();
-  const Vec3 open = s.left_pull - s.right_pull;
-  out.opening = open;
+  out.opening = s.left_pull - s.right_pull;
+  out.opening_force = out.opening.norm();
+  const Vec3& open = out.opening;
   const double across = params.normal.squaredNorm() > 0 ? open.dot(params.normal) : 0.0;
   const double along = (open - across * params.normal).norm() * std::cos(0.5 * out.theta);
   out.energy_release = std::sqrt(across * across + along * along) / params.thickness;
