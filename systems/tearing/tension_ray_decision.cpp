@@ -103,6 +103,16 @@ PropagationDecision decide_edge_start(const Sheet& sheet, int32_t p, double frac
     d.griffith = false;
     return d;
   }
+  // As at an inward corner, the edge opens only where the load between the two sides passes it: tension
+  // far off that line (a border bent or curled between the hands, a lip beside a notch) is the sheet's
+  // shape, not the pull that tears it. With the loads all on one side no path joins them, and the edge's
+  // tension alone decides (a finger pinching the border).
+  const TensionRays& rays = scratch.result;
+  if (rays.left_count > 0 && rays.right_count > 0 &&
+      !(start_wrap_excess(sheet, rays, scratch.loads, scratch) <= params.start_wrap)) {
+    d.griffith = false;
+    return d;
+  }
   d.angle = scratch.result.theta;
   // Across the edge's tension: the inward normal (the sheet lies left of prev → p → next).
   d.direction = scratch.result.valid ? scratch.result.direction : Vec2(-edge.tangent.y(), edge.tangent.x());

@@ -17,8 +17,9 @@
 // - Elsewhere on the edge (a junction, a pinching finger, a twisted or crumpled border) no ray wraps, and
 //   what starts a tear is the edge pulled apart along its length: Er = N_tt · start_length / e with N_tt
 //   the tension along the edge over a physical disc (systems/tearing/edge_tension.hpp), i.e. a tear starts
-//   when the edge's tension over start_length carries the force of a trouser start. Its direction is the
-//   rays' when they give one, else straight into the sheet, across the tension.
+//   when the edge's tension over start_length carries the force of a trouser start, and, when loads lie on
+//   both sides, only within start_wrap of the load's path between them, as at an inward corner. Its
+//   direction is the rays' when they give one, else straight into the sheet, across the tension.
 #pragma once
 
 #include "components/sheet.hpp"

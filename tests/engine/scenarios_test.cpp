@@ -153,28 +153,30 @@ TEST(Scenarios, PushedBentOrWavedSheetsDoNotTearAndHoldLittle) {
 
 // Compression relief (material.compression_scale, off by default; docs/physics.md "Membrane"): with a
 // compressed direction keeping a tenth of its stiffness, the coarse meshes that lock no longer do. Four
-// fingers pushing an A5 sheet together tear it at 12.5 N on ~160 triangles with the relief off (below);
-// with it, on ~120, 500 and 2 000 triangles the sheet never tears and the fingers' peaks stay within
-// 0.35 N and 30% of each other (measured 0.30 / 0.26 / 0.25 N), and the bent arch within 0.6 N (0.54 /
-// 0.39 / 0.39 N).
+// fingers pushing an A5 sheet together on ~160 triangles hold their 15 N grip and slip with the relief off
+// (below; before edge starts read the load's path, that locked border tore at 12.5 N); with it, on ~120,
+// 500 and 2 000 triangles the sheet never tears and the fingers' peaks stay within 0.35 N and 30% of each
+// other (measured 0.30 / 0.26 / 0.25 N), and the bent arch within 0.6 N (0.54 / 0.39 / 0.39 N).
 TEST(Scenarios, CompressionReliefLetsCoarseSheetsBuckleWithoutLocking) {
-  auto peak_of = [](const char* file, int32_t triangles, double compression_scale, size_t& tears) {
+  auto peak_of = [](const char* file, int32_t triangles, double compression_scale, size_t& tears, int& slips) {
     Scenario s = load_scenario(scenario_path(file));
     s.triangles = triangles;
     s.material.compression_scale = compression_scale;
     ScenarioRun r = run_scenario(s);
     double peak = 0;
+    slips = 0;
     for (const Finger& f : r.sheet().fingers) {
       peak = std::max(peak, f.max_force);
-      EXPECT_EQ(f.slips, 0) << file << " " << triangles << " finger " << f.name;
+      slips += f.slips;
     }
     tears = r.sheet().tears.size();
     expect_no_violations(*r.sim);
     return peak;
   };
   size_t tears = 0;
-  peak_of("push-together.json", 160, 1.0, tears);
-  EXPECT_GT(tears, 0u) << "without the relief the coarse sheet locks and tears";
+  int slips = 0;
+  EXPECT_GE(peak_of("push-together.json", 160, 1.0, tears, slips), 5.0)
+      << "without the relief the coarse sheet locks: newtons where paper buckles for millinewtons";
   struct Case {
     const char* file;
     double bound, spread;
@@ -182,8 +184,9 @@ TEST(Scenarios, CompressionReliefLetsCoarseSheetsBuckleWithoutLocking) {
   for (const Case c : {Case{"push-together.json", 0.35, 1.3}, Case{"bent-cylinder.json", 0.6, 1e9}}) {
     double lo = 1e9, hi = 0;
     for (const int32_t triangles : {120, 500, 2000}) {
-      const double peak = peak_of(c.file, triangles, 0.1, tears);
+      const double peak = peak_of(c.file, triangles, 0.1, tears, slips);
       EXPECT_EQ(tears, 0u) << c.file << " " << triangles;
+      EXPECT_EQ(slips, 0) << c.file << " " << triangles;
       EXPECT_LE(peak, c.bound) << c.file << " " << triangles;
       lo = std::min(lo, peak), hi = std::max(hi, peak);
     }
@@ -193,11 +196,11 @@ TEST(Scenarios, CompressionReliefLetsCoarseSheetsBuckleWithoutLocking) {
 
 // sheet.hand_lines (docs/physics.md, "Fingers"): the line between a hand's two fingers is where the sheet
 // pivots; on a coarse mesh that does not follow it the triangles straddling it lock. Four fingers pushing
-// an A5 sheet together on ~250 triangles tear it at 13 N without the lines (mesh seed 0); with them, on
-// four meshes, the sheet never tears and the fingers peak at 0.53–0.59 N, as on 500 and 2 000 triangles
-// without them (0.54–0.57 N).
+// an A5 sheet together on ~250 triangles hold their 15 N grip and slip without the lines (mesh seed 0);
+// with them, on four meshes, the sheet never tears, no finger slips and they peak at 0.53–0.59 N, as on
+// 500 and 2 000 triangles without them (0.54–0.57 N).
 TEST(Scenarios, HandLinesKeepACoarsePushedSheetFromLocking) {
-  auto run_push = [](uint64_t seed, bool hand_lines, double& peak) {
+  auto run_push = [](uint64_t seed, bool hand_lines, double& peak, int& slips) {
     Scenario s = load_scenario(scenario_path("push-together.json"));
     s.triangles = 250;
     s.mesh_seed = seed;
@@ -205,17 +208,21 @@ TEST(Scenarios, HandLinesKeepACoarsePushedSheetFromLocking) {
     s.hand_lines = hand_lines;
     ScenarioRun r = run_scenario(s);
     peak = 0;
+    slips = 0;
     for (const Finger& f : r.sheet().fingers) {
       peak = std::max(peak, f.max_force);
-      EXPECT_EQ(f.slips, 0) << "seed " << seed << " finger " << f.name;
+      slips += f.slips;
     }
     expect_no_violations(*r.sim);
     return r.sheet().tears.size();
   };
   double peak = 0;
-  EXPECT_GT(run_push(0, false, peak), 0u) << "without the lines this mesh locks and tears";
+  int slips = 0;
+  run_push(0, false, peak, slips);
+  EXPECT_GE(peak, 5.0) << "without the lines this mesh locks";
   for (const uint64_t seed : {0, 1, 2, 3}) {
-    EXPECT_EQ(run_push(seed, true, peak), 0u) << "seed " << seed;
+    EXPECT_EQ(run_push(seed, true, peak, slips), 0u) << "seed " << seed;
+    EXPECT_EQ(slips, 0) << "seed " << seed;
     EXPECT_LE(peak, 0.7) << "seed " << seed;
   }
 }
@@ -559,6 +566,39 @@ TEST(Scenarios, Fig12StartsOnTheFlattenedBorderNearAFinger) {
     EXPECT_LT(nearest, 0.025) << "seed " << seed;
     for (const Finger& f : r.sheet().fingers) EXPECT_EQ(f.slips, 0) << "seed " << seed << " finger " << f.name;
   }
+}
+
+// Fig. 18: the sheet bent into a U, one hand slid along it, then the hands turned apart. The paper's tear
+// starts at a singular point of the border as the hands move apart, without shredding. Over four meshes: at
+// most 3 tears and 2 pieces on each, and on at least three the longest tear starts on the top border
+// between the hands once they move apart (from 2.5 s). Measured: one tear of 22 cm from u = 5.6-9.2 cm
+// (with a 7-10 mm one by the left hand on two meshes), 2 pieces; the fourth mesh does not tear and its
+// fingers slip at their grip (docs/tearing.md, "Known gaps"). Before edge starts read the load's path,
+// junctions by each hand, off the line the hands pull along, cut the U's corners off first: 2-4 tears in
+// 2-3 pieces.
+TEST(Scenarios, Fig18TearsFromTheBorderBetweenTheHandsWithoutShredding) {
+  int from_the_border = 0;
+  for (const int seed : {0, 1, 2, 3}) {
+    Scenario s = load_scenario(scenario_path("fig18-crumple.json"));
+    s.mesh_seed = seed;
+    s.mesh_rotation_deg = 17.0 * seed;
+    ScenarioRun r = run_scenario(s);
+    const Sheet& sheet = r.sheet();
+    EXPECT_LE(sheet.tears.size(), 3u) << "seed " << seed;
+    EXPECT_LE(sheet.topo.piece_count, 2) << "seed " << seed;
+    expect_no_violations(*r.sim);
+    const Tear* longest = nullptr;
+    for (const Tear& t : sheet.tears)
+      if (!longest || path_length(t.tips) > path_length(longest->tips)) longest = &t;
+    if (!longest) continue;
+    double lo = 1e9, hi = -1e9;
+    for (const FingerSpec& f : s.fingers) lo = std::min(lo, f.at.x()), hi = std::max(hi, f.at.x());
+    const bool on_top_border = std::abs(longest->start_uv.y() - 0.21) < 1e-9;
+    const bool between = longest->start_uv.x() > lo && longest->start_uv.x() < hi;
+    const bool apart = longest->start_frame >= static_cast<int32_t>(std::lround(2.5 * s.sim.fps));
+    if (on_top_border && between && apart) ++from_the_border;
+  }
+  EXPECT_GE(from_the_border, 3);
 }
 
 // Fig. 17: fingers change positions during the tear. The second pair, put on at 2 s where the sheet

@@ -144,3 +144,35 @@ TEST(TensionRayDecision, LegsPushedTogetherInThePlaneDoNotTear) {
     EXPECT_NEAR(together.energy_release, 0, 1e-6) << "turned " << turned;
   }
 }
+
+// An edge start (a straight border, no notch): the sheet stretched 1% along x carries ~120 N/m along its top
+// edge, far above a start's tension, everywhere on it. With the two fingers 5 mm below that edge, the load
+// between them passes the edge's midpoint and a tear starts there; with the same fingers 10 cm below it the
+// edge is as taut but the load passes far off it (d(A, p) + d(p, B) − d(A, B) = 11 cm), and nothing starts.
+// Without the loads' path the second sheet would tear from its top edge as the first does.
+TEST(TensionRayDecision, AnEdgeStartsOnlyWhereTheLoadBetweenTheSidesPasses) {
+  Material paper;
+  const MembraneParams membrane = membrane_params(paper);
+  const TensionRayDecisionParams params;
+  for (const double below : {0.005, 0.1}) {
+    Sheet s = slit_grid(0.2, 0.15, 20, 30, {});
+    for (Vec3& x : s.verts.x) x.x() *= 1.01;
+    hold(s, Vec2(0.04, 0.15 - below), Vec2::Zero(), 1.0, true);
+    hold(s, Vec2(0.16, 0.15 - below), Vec2::Zero(), 1.0, false);
+    const int32_t p = vertex_at(s, Vec2(0.1, 0.15));
+    ASSERT_GE(p, 0);
+    TensionRayDecisionScratch scratch;
+    const PropagationDecision d = decide_edge_start(s, p, 1e3, propagation(), membrane, params, scratch);
+    const double excess = start_wrap_excess(s, scratch.result, scratch.loads, scratch);
+    EXPECT_GT(d.energy_release, 10 * 1e3) << below << ": the edge is taut either way";
+    if (below < 0.01) {
+      EXPECT_LT(excess, params.start_wrap);
+      EXPECT_TRUE(d.propagate) << "on the load's path";
+      EXPECT_LT(d.direction.y(), -0.99) << "into the sheet, across the edge";
+    } else {
+      EXPECT_NEAR(excess, 2 * (std::hypot(0.06, 0.1) - 0.06), 1e-9);
+      EXPECT_FALSE(d.griffith) << "the load passes 10 cm below";
+      EXPECT_FALSE(d.propagate);
+    }
+  }
+}
