@@ -262,9 +262,13 @@ class Threads(unittest.TestCase):
         def reader():
             reading.set()
             while not done.is_set():
-                frames_seen.add(sim.frame)
+                before = sim.frame
+                frames_seen.add(before)
                 tears, x, res = sim.tears, sim.positions, sim.result()
-                self.assertEqual(len(res["tears"]), len(tears))
+                # Each call is one read: a step(10) may come between two of them, and then the tears may
+                # differ. Read at one frame, they agree.
+                if sim.frame == before:
+                    self.assertEqual(len(res["tears"]), len(tears))
                 self.assertTrue(np.isfinite(x).all())
                 sim.events, sim.fingers, sim.triangles, sim.hash
 
