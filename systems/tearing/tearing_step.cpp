@@ -127,9 +127,11 @@ void refresh_role_flags(const std::vector<Finger>& fingers, const std::vector<Ti
 
 namespace {
 
-// A new tear not started here: one at a finger is never shielded (the finger itself loads the sheet).
+// A new tear not started here: an active tip relieves the paper around it, a pinching finger's point
+// included. Split by the tear it has just started, that point would otherwise start more from itself, a
+// few degrees apart: slivers of paper.
 bool start_shielded(const TearingParams& params, const Candidate& c, const Sheet& sheet) {
-  return c.tear < 0 && c.kind != StartKind::Finger &&
+  return c.tear < 0 &&
          shielded_by_active_tip(sheet.verts.rest, sheet.tips, sheet.verts.rest[c.vertex], params.shielding_radius);
 }
 
