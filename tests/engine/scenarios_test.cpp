@@ -153,9 +153,8 @@ TEST(Scenarios, PushedBentOrWavedSheetsDoNotTearAndHoldLittle) {
 
 // Compression relief (material.compression_scale, off by default; docs/physics.md "Membrane"): with a
 // compressed direction keeping a tenth of its stiffness, the coarse meshes that lock no longer do. Four
-// fingers pushing an A5 sheet together on ~160 triangles hold their 15 N grip and slip with the relief off
-// (below; before edge starts read the load's path, that locked border tore at 12.5 N); with it, on ~120,
-// 500 and 2 000 triangles the sheet never tears and the fingers' peaks stay within 0.35 N and 30% of each
+// fingers pushing an A5 sheet together on ~160 triangles reach their 15 N grip with the relief off
+// (below); with it, on ~120, 500 and 2 000 triangles the sheet never tears and the fingers' peaks stay within 0.35 N and 30% of each
 // other (measured 0.30 / 0.26 / 0.25 N), and the bent arch within 0.6 N (0.54 / 0.39 / 0.39 N).
 TEST(Scenarios, CompressionReliefLetsCoarseSheetsBuckleWithoutLocking) {
   auto peak_of = [](const char* file, int32_t triangles, double compression_scale, size_t& tears, int& slips) {
@@ -569,9 +568,9 @@ TEST(Scenarios, Fig12StartsOnTheFlattenedBorderNearAFinger) {
 }
 
 // A pinching finger starts one tear from its point, not a fan of them: on four meshes of start-finger no
-// two tears leave one pattern point less than 30 degrees apart. (With a finger's point exempt from the
-// shielding of the tip it had just made, mesh 3 started two more tears there in the same frame, 1 and 22
-// degrees from the first: slivers of paper 4 mm long.)
+// two tears leave one pattern point less than 30 degrees apart. (A finger's point exempt from the shielding
+// of the tip it has just made starts two more tears there on mesh 3, in the same frame, 1 and 22 degrees
+// from the first: slivers of paper 4 mm long.)
 TEST(Scenarios, AFingerStartsNoSlivers) {
   for (const int seed : {0, 1, 2, 3}) {
     Scenario s = load_scenario(scenario_path("start-finger.json"));
@@ -604,9 +603,9 @@ TEST(Scenarios, AFingerStartsNoSlivers) {
 // most 3 tears and 2 pieces on each, and on at least three the longest tear starts on the top border
 // between the hands once they move apart (from 2.5 s). Measured: one tear of 22 cm from u = 5.6-9.2 cm
 // (with a 7-10 mm one by the left hand on two meshes), 2 pieces; the fourth mesh does not tear and its
-// fingers slip at their grip (docs/tearing.md, "Known gaps"). Before edge starts read the load's path,
-// junctions by each hand, off the line the hands pull along, cut the U's corners off first: 2-4 tears in
-// 2-3 pieces.
+// fingers slip at their grip (docs/tearing.md, "Known gaps"). Edge starts that did not read the load's
+// path started at junctions by each hand, off the line the hands pull along, and cut the U's corners off
+// first: 2-4 tears in 2-3 pieces.
 TEST(Scenarios, Fig18TearsFromTheBorderBetweenTheHandsWithoutShredding) {
   int from_the_border = 0;
   for (const int seed : {0, 1, 2, 3}) {
