@@ -73,6 +73,13 @@ Vec3 world_direction_ahead(const Sheet& sheet, int32_t p, const Vec2& ahead, con
   return edges * (sheet.tris.rest_inv[best] * dir);
 }
 
+// A start point lies on the load's path: within start_wrap of a shortest path between a left and a right
+// load point of `rays` (docs/tearing.md, "Starts").
+bool on_the_loads_path(const Sheet& sheet, const TensionRays& rays, const TensionRayDecisionParams& params,
+                       TensionRayDecisionScratch& scratch) {
+  return start_wrap_excess(sheet, rays, scratch.loads, scratch) <= params.start_wrap;
+}
+
 bool inward_corner(const Sheet& sheet, int32_t p) {
   return interior_pattern_angle(sheet.topo, sheet.verts.rest, p) > std::numbers::pi + 1e-9;
 }
@@ -91,14 +98,14 @@ PropagationDecision decide_edge_start(const Sheet& sheet, int32_t p, double frac
   finger_load_points(sheet.fingers, scratch.loads);
   TensionRaysParams rp = params.rays;
   rp.thickness = propagation.thickness;
-  compute_tension_rays(sheet.verts.rest, sheet.tris.piece, sheet.topo, p, scratch.loads, rp, scratch.rays,
-                       scratch.result);
+  TensionRays& rays = scratch.result;
+  compute_tension_rays(sheet.verts.rest, sheet.tris.piece, sheet.topo, p, scratch.loads, rp, scratch.rays, rays);
   // What loads the edge is what the fingers holding p's piece pull: its tension over start_length cannot
   // carry more than their reactions in all, Er ≤ Σ‖R_j‖ / e, the bound of the rays' Er. Without it an edge
   // folded sharply while its fingers hold 0.1 N (a trouser's body as its legs tear apart) read a start
   // from the fold's membrane strain.
   double held = 0;
-  for (const LoadRay& r : scratch.result.rays) held += r.weight;
+  for (const LoadRay& r : rays.rays) held += r.weight;
   if (!(held / propagation.thickness >= fracture_energy)) {
     d.griffith = false;
     return d;
@@ -107,15 +114,13 @@ PropagationDecision decide_edge_start(const Sheet& sheet, int32_t p, double frac
   // far off that line (a border bent or curled between the hands, a lip beside a notch) is the sheet's
   // shape, not the pull that tears it. With the loads all on one side no path joins them, and the edge's
   // tension alone decides (a finger pinching the border).
-  const TensionRays& rays = scratch.result;
-  if (rays.left_count > 0 && rays.right_count > 0 &&
-      !(start_wrap_excess(sheet, rays, scratch.loads, scratch) <= params.start_wrap)) {
+  if (rays.left_count > 0 && rays.right_count > 0 && !on_the_loads_path(sheet, rays, params, scratch)) {
     d.griffith = false;
     return d;
   }
-  d.angle = scratch.result.theta;
+  d.angle = rays.theta;
   // Across the edge's tension: the inward normal (the sheet lies left of prev → p → next).
-  d.direction = scratch.result.valid ? scratch.result.direction : Vec2(-edge.tangent.y(), edge.tangent.x());
+  d.direction = rays.valid ? rays.direction : Vec2(-edge.tangent.y(), edge.tangent.x());
   finish_decision(sheet, p, propagation, d);
   return d;
 }
@@ -150,7 +155,7 @@ PropagationDecision decide_by_tension_rays(const Sheet& sheet, int32_t p, double
         rp.thickness);
   d.griffith = std::isfinite(d.energy_release) && d.energy_release >= fracture_energy;
   if (!d.griffith) return d;
-  if (is_start && !(start_wrap_excess(sheet, rays, scratch.loads, scratch) <= params.start_wrap)) {
+  if (is_start && !on_the_loads_path(sheet, rays, params, scratch)) {
     d.griffith = false;
     return d;
   }

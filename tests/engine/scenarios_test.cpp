@@ -49,6 +49,22 @@ double path_length(const std::vector<Vec2>& p) {
   return l;
 }
 
+// scenarios/<file> meshed with sheet.mesh_seed = seed and its meshing frame turned 17° per seed, as
+// tools/paper_check.py --seeds and papertear-path-claims mesh it.
+Scenario scenario_on_mesh(const char* file, uint64_t seed) {
+  Scenario s = load_scenario(scenario_path(file));
+  s.mesh_seed = seed;
+  s.mesh_rotation_deg = 17.0 * static_cast<double>(seed);
+  return s;
+}
+
+// Strictly between the leftmost and the rightmost finger in u: between the hands.
+bool between_the_hands(const Scenario& s, const Vec2& uv) {
+  double lo = 1e9, hi = -1e9;
+  for (const FingerSpec& f : s.fingers) lo = std::min(lo, f.at.x()), hi = std::max(hi, f.at.x());
+  return uv.x() > lo && uv.x() < hi;
+}
+
 Vec2 finger_uv(const Scenario& s, const std::string& name) {
   for (const FingerSpec& f : s.fingers)
     if (f.name == name) return f.at;
@@ -111,9 +127,7 @@ TEST(Scenarios, NoSubstepIsRefusedOnMeshesThatUsedToFreeze) {
   };
   for (const Case c : {Case{"fig16-zigzag.json", 3}, Case{"fig16-zigzag.json", 5}, Case{"fig14-straight.json", 4},
                        Case{"fig15-curved.json", 1}}) {
-    Scenario s = load_scenario(scenario_path(c.file));
-    s.mesh_seed = c.mesh;
-    s.mesh_rotation_deg = 17.0 * static_cast<double>(c.mesh);
+    const Scenario s = scenario_on_mesh(c.file, c.mesh);
     ScenarioRun r = run_scenario(s);
     EXPECT_EQ(solver_stats(*r.sim).failures, 0) << c.file << " mesh " << c.mesh;
     expect_no_violations(*r.sim);
@@ -200,10 +214,8 @@ TEST(Scenarios, CompressionReliefLetsCoarseSheetsBuckleWithoutLocking) {
 // 500 and 2 000 triangles without them (0.54–0.57 N).
 TEST(Scenarios, HandLinesKeepACoarsePushedSheetFromLocking) {
   auto run_push = [](uint64_t seed, bool hand_lines, double& peak, int& slips) {
-    Scenario s = load_scenario(scenario_path("push-together.json"));
+    Scenario s = scenario_on_mesh("push-together.json", seed);
     s.triangles = 250;
-    s.mesh_seed = seed;
-    s.mesh_rotation_deg = 17.0 * double(seed);
     s.hand_lines = hand_lines;
     ScenarioRun r = run_scenario(s);
     peak = 0;
@@ -539,11 +551,7 @@ TEST(Scenarios, StartKinds) {
     const Tear& first = r.sheet().tears[0];
     EXPECT_EQ(first.start_kind, c.kind) << c.file;
     if (c.kind == StartKind::Junction) {
-      // Between the hands: strictly between the leftmost and rightmost finger in u.
-      double lo = 1e9, hi = -1e9;
-      for (const FingerSpec& f : s.fingers) lo = std::min(lo, f.at.x()), hi = std::max(hi, f.at.x());
-      EXPECT_GT(first.start_uv.x(), lo) << c.file;
-      EXPECT_LT(first.start_uv.x(), hi) << c.file;
+      EXPECT_TRUE(between_the_hands(s, first.start_uv)) << c.file << " at u = " << first.start_uv.x();
     }
   }
 }
@@ -552,9 +560,7 @@ TEST(Scenarios, StartKinds) {
 // the fingers, at a junction between the curved region and a hand's flat one (paper §7.1), on two meshes.
 TEST(Scenarios, Fig12StartsOnTheFlattenedBorderNearAFinger) {
   for (const int seed : {0, 1}) {
-    Scenario s = load_scenario(scenario_path("fig12-junction.json"));
-    s.mesh_seed = seed;
-    s.mesh_rotation_deg = 17.0 * seed;
+    const Scenario s = scenario_on_mesh("fig12-junction.json", seed);
     ScenarioRun r = run_scenario(s);
     ASSERT_FALSE(r.sheet().tears.empty()) << "seed " << seed;
     const Tear& first = r.sheet().tears[0];
@@ -573,9 +579,7 @@ TEST(Scenarios, Fig12StartsOnTheFlattenedBorderNearAFinger) {
 // from the first: slivers of paper 4 mm long.)
 TEST(Scenarios, AFingerStartsNoSlivers) {
   for (const int seed : {0, 1, 2, 3}) {
-    Scenario s = load_scenario(scenario_path("start-finger.json"));
-    s.mesh_seed = seed;
-    s.mesh_rotation_deg = 17.0 * seed;
+    const Scenario s = scenario_on_mesh("start-finger.json", seed);
     ScenarioRun r = run_scenario(s);
     const std::vector<Tear>& tears = r.sheet().tears;
     EXPECT_FALSE(tears.empty()) << "seed " << seed;
@@ -609,9 +613,7 @@ TEST(Scenarios, AFingerStartsNoSlivers) {
 TEST(Scenarios, Fig18TearsFromTheBorderBetweenTheHandsWithoutShredding) {
   int from_the_border = 0;
   for (const int seed : {0, 1, 2, 3}) {
-    Scenario s = load_scenario(scenario_path("fig18-crumple.json"));
-    s.mesh_seed = seed;
-    s.mesh_rotation_deg = 17.0 * seed;
+    const Scenario s = scenario_on_mesh("fig18-crumple.json", seed);
     ScenarioRun r = run_scenario(s);
     const Sheet& sheet = r.sheet();
     EXPECT_LE(sheet.tears.size(), 3u) << "seed " << seed;
@@ -621,10 +623,8 @@ TEST(Scenarios, Fig18TearsFromTheBorderBetweenTheHandsWithoutShredding) {
     for (const Tear& t : sheet.tears)
       if (!longest || path_length(t.tips) > path_length(longest->tips)) longest = &t;
     if (!longest) continue;
-    double lo = 1e9, hi = -1e9;
-    for (const FingerSpec& f : s.fingers) lo = std::min(lo, f.at.x()), hi = std::max(hi, f.at.x());
     const bool on_top_border = std::abs(longest->start_uv.y() - 0.21) < 1e-9;
-    const bool between = longest->start_uv.x() > lo && longest->start_uv.x() < hi;
+    const bool between = between_the_hands(s, longest->start_uv);
     const bool apart = longest->start_frame >= static_cast<int32_t>(std::lround(2.5 * s.sim.fps));
     if (on_top_border && between && apart) ++from_the_border;
   }
@@ -637,9 +637,7 @@ TEST(Scenarios, Fig18TearsFromTheBorderBetweenTheHandsWithoutShredding) {
 // 2 cm and turned by more than 0.4 rad from the run before.
 TEST(Scenarios, Fig17SecondPairTearsOnInAnotherDirection) {
   for (const int seed : {0, 1}) {
-    Scenario s = load_scenario(scenario_path("fig17-branching.json"));
-    s.mesh_seed = seed;
-    s.mesh_rotation_deg = 17.0 * seed;
+    const Scenario s = scenario_on_mesh("fig17-branching.json", seed);
     EngineOptions o;
     o.threads = 1;
     Simulation sim(s, o);

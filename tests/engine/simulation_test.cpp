@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 
 #include <array>
-#include <fstream>
 #include <cmath>
+#include <fstream>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -340,17 +340,17 @@ TEST(Simulation, APadKeepsItsPaperThroughCuts) {
 // The pattern SVG draws a pad's disc: a ring of its radius (1 000 units a metre) around the finger's dot.
 TEST(Simulation, ThePatternShowsAPadsDisc) {
   Simulation sim(turned_strip(0.006), one_thread());
-  const std::string path = testing::TempDir() + "pad-pattern.svg";
-  write_svg(sim, path);
-  std::ifstream in(path);
-  const std::string svg((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto svg_of = [](const Simulation& sim) {
+    const std::string path = testing::TempDir() + "pad-pattern.svg";
+    write_svg(sim, path);
+    std::ifstream in(path);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  const std::string svg = svg_of(sim);
   const size_t ring = svg.find("<circle class=\"pad\"");
   ASSERT_NE(ring, std::string::npos);
   EXPECT_NE(svg.find("r=\"6.000\"", ring), std::string::npos);
   EXPECT_EQ(svg.find("<circle class=\"pad\"", ring + 1), std::string::npos) << "one finger, one ring";
-  Simulation point(turned_strip(0), one_thread());
-  write_svg(point, path);
-  std::ifstream again(path);
-  const std::string plain((std::istreambuf_iterator<char>(again)), std::istreambuf_iterator<char>());
-  EXPECT_EQ(plain.find("class=\"pad\""), std::string::npos) << "a point has no ring";
+  EXPECT_EQ(svg_of(Simulation(turned_strip(0), one_thread())).find("class=\"pad\""), std::string::npos)
+      << "a point has no ring";
 }
