@@ -415,8 +415,9 @@ void triangle_forces_and_stiffness(const ImplicitParams& params, const MembraneP
       StrainLimitTangent limit;
       strain_limit_term(strain, mp, stress, &limit);
       const Mat2 tension = tensile_part(stress);
-      // A principal direction v stretched past the strain limit adds its modulus k along v:
-      // k (g_a·v)(g_b·v) (R v)(R v)ᵀ (the limit term's Hessian with v frozen, as R is).
+      // A principal direction v stretched past the strain limit, or compressed under the relief, adds its
+      // modulus k along v (negative for the relief's softening): k (g_a·v)(g_b·v) (R v)(R v)ᵀ, the term's
+      // Hessian with v frozen, as R is; a compressed trace scales λ's part.
       Vec3 rv[2];
       double gv[2][3];
       for (int i = 0; i < limit.count; ++i) {
@@ -433,7 +434,7 @@ void triangle_forces_and_stiffness(const ImplicitParams& params, const MembraneP
       Vec3 rg[3], lambda_rg[3], twist_rg[3];
       for (int a = 0; a < 3; ++a) {
         rg[a] = R * g[a];
-        lambda_rg[a] = mp.lambda * rg[a];
+        lambda_rg[a] = (mp.lambda * limit.trace_scale) * rg[a];
         twist_rg[a] = ((1 - kappa) * mp.mu) * rg[a];
       }
       // In-plane part + (g_aᵀ Σ⁺ g_b)(I − RRᵀ), with I − RRᵀ expanded. Entry by entry in scalars, in the

@@ -128,14 +128,17 @@ double compression_relief_term(double m, double h, double b, double r, const Mem
   }
   const Vec2 v1 = first_eigenvector(h, b, r), v2(-v1.y(), v1.x());
   tau += sigma[0] * (v1 * v1.transpose()) + sigma[1] * (v2 * v2.transpose());
-  // Past the compression limit the full modulus is back: the implicit step must see it, as past the
-  // stretch limit (the relief's softening itself is left out of the tangent, which stays the stiffer one).
-  if (tangent)
+  // The tangent: a compressed direction keeps c of 2μ, and past the compression limit the full modulus is
+  // back, as past the stretch limit. (No direction is both compressed here and stretched past the limit, so
+  // the stretch term has left these slots free.)
+  if (tangent) {
+    if (trace < 0) tangent->trace_scale = 1 - relief;
     for (int i = 0; i < 2; ++i)
-      if (past_limit[i] > 0 && tangent->count < 2) {
+      if (e[i] < 0 && tangent->count < 2) {
         tangent->direction[tangent->count] = i == 0 ? v1 : v2;
-        tangent->modulus[tangent->count++] = 2 * params.limit_mu;
+        tangent->modulus[tangent->count++] = -relief * 2 * mu + 2 * params.limit_mu * (past_limit[i] > 0);
       }
+  }
   return energy;
 }
 

@@ -33,12 +33,17 @@ struct MembraneParams {
 
 // The strain-limit term for a symmetric 2x2 strain E (rotated frame): returns its energy density
 // μ_lim Σ max(0, εᵢ − ε_lim)² (plus the compression relief's, which is negative, when it is on) and adds its
-// stress τ = ∂/∂E to `tau`; with `tangent`, also the stiffness of each principal direction past a limit,
-// 2 μ_lim vᵢvᵢᵀ ⊗ vᵢvᵢᵀ, as the unit directions and moduli (count ≤ 2).
+// stress τ = ∂/∂E to `tau`; with `tangent`, also what these terms change in the linear energy's stiffness,
+// with the principal directions frozen: a modulus kᵢ for each principal direction they touch, kᵢ vᵢvᵢᵀ ⊗
+// vᵢvᵢᵀ (2 μ_lim past a limit; −(1 − c) 2 μ for a direction the relief softens, c = compression_scale),
+// and the factor of λ's trace stiffness (c while the trace is compressed). The implicit step must see the
+// relief's softening: with the stiff tangent a compressed sheet moved as if through syrup, and an arch
+// pushed in its plane held 0.39 N at c = 0.1 for 0.35 N with it (docs/physics.md, "Compression relief").
 struct StrainLimitTangent {
-  int count = 0;
+  int count = 0;  // ≤ 2
   Vec2 direction[2];
   double modulus[2] = {0, 0};
+  double trace_scale = 1;
 };
 double strain_limit_term(const Mat2& strain, const MembraneParams& params, Mat2& tau,
                          StrainLimitTangent* tangent = nullptr);

@@ -168,8 +168,9 @@ TEST(Scenarios, PushedBentOrWavedSheetsDoNotTearAndHoldLittle) {
 // Compression relief (material.compression_scale, off by default; docs/physics.md "Membrane"): with a
 // compressed direction keeping a tenth of its stiffness, the coarse meshes that lock no longer do. Four
 // fingers pushing an A5 sheet together on ~160 triangles reach their 15 N grip with the relief off
-// (below); with it, on ~120, 500 and 2 000 triangles the sheet never tears and the fingers' peaks stay within 0.35 N and 30% of each
-// other (measured 0.30 / 0.26 / 0.25 N), and the bent arch within 0.6 N (0.54 / 0.39 / 0.39 N).
+// (below); with it, on ~120, 500 and 2 000 triangles the sheet never tears and the fingers' peaks stay
+// within 0.35 N and 30% of each other (measured 0.30 / 0.25 / 0.23 N), and the bent arch within 0.5 N
+// (0.46 / 0.35 / 0.34 N; 0.39 N on 500 when the step's tangent kept the stiff compression).
 TEST(Scenarios, CompressionReliefLetsCoarseSheetsBuckleWithoutLocking) {
   auto peak_of = [](const char* file, int32_t triangles, double compression_scale, size_t& tears, int& slips) {
     Scenario s = load_scenario(scenario_path(file));
@@ -194,7 +195,7 @@ TEST(Scenarios, CompressionReliefLetsCoarseSheetsBuckleWithoutLocking) {
     const char* file;
     double bound, spread;
   };
-  for (const Case c : {Case{"push-together.json", 0.35, 1.3}, Case{"bent-cylinder.json", 0.6, 1e9}}) {
+  for (const Case c : {Case{"push-together.json", 0.35, 1.3}, Case{"bent-cylinder.json", 0.5, 1e9}}) {
     double lo = 1e9, hi = 0;
     for (const int32_t triangles : {120, 500, 2000}) {
       const double peak = peak_of(c.file, triangles, 0.1, tears, slips);

@@ -154,6 +154,46 @@ TEST(MembraneForces, CompressionReliefForcesAreMinusEnergyGradient) {
   EXPECT_NEAR(linear + tau(0, 0), 0.1 * linear, 1e-9 * std::abs(linear));
 }
 
+
+// The tangent the implicit step uses for the relief and the limits (StrainLimitTangent) is the derivative
+// of the stress τ(E) = 2μE + λ tr(E) I + the terms' τ, by central differences, in the principal frame
+// (a diagonal perturbation there leaves the principal directions where they are): compressed on both
+// axes, on one, past the compression limit, and stretched past the strain limit.
+TEST(MembraneForces, ReliefAndLimitTangentsAreTheStressDerivative) {
+  MembraneParams params = paper_params();
+  params.compression_relief = 0.95;
+  params.compression_limit = 0.05;
+  params.strain_limit = 0.02;
+  auto stress = [&](const Mat2& e) {
+    Mat2 tau = 2 * params.mu * e + params.lambda * e.trace() * Mat2::Identity();
+    strain_limit_term(e, params, tau);
+    return tau;
+  };
+  const double cases[][2] = {{-0.01, -0.004}, {-0.01, 0.003}, {0.004, -0.02}, {-0.06, 0.001}, {0.03, -0.001}};
+  for (const auto& c : cases)
+    for (const double turn : {0.0, 0.7}) {
+      const Vec2 v(std::cos(turn), std::sin(turn)), w(-v.y(), v.x());
+      const Mat2 e = c[0] * v * v.transpose() + c[1] * w * w.transpose();
+      Mat2 tau = Mat2::Zero();
+      StrainLimitTangent tangent;
+      strain_limit_term(e, params, tau, &tangent);
+      // The tangent's stiffness along the principal axes a, b: d τ_aa / d e_bb.
+      auto tangent_ab = [&](const Vec2& a, const Vec2& b) {
+        double k = params.lambda * tangent.trace_scale + (a == b ? 2 * params.mu : 0);
+        for (int i = 0; i < tangent.count; ++i)
+          k += tangent.modulus[i] * std::pow(a.dot(tangent.direction[i]), 2) * std::pow(b.dot(tangent.direction[i]), 2);
+        return k;
+      };
+      const double h = 1e-7;
+      for (const Vec2& b : {v, w}) {
+        const Mat2 d = stress(e + h * b * b.transpose()) - stress(e - h * b * b.transpose());
+        for (const Vec2& a : {v, w}) {
+          const double fd = a.dot(d * a) / (2 * h), k = tangent_ab(a, b);
+          EXPECT_NEAR(k, fd, 1e-5 * (2 * params.mu + params.lambda)) << c[0] << " " << c[1] << " turn " << turn;
+        }
+      }
+    }
+}
 TEST(MembraneForces, StrainLimitStiffensPastTheLimit) {
   const MembraneParams params = paper_params();
   auto stress_at = [&](double eps) {
