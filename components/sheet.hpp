@@ -43,7 +43,7 @@ struct Material {
   // Compression relief (docs/physics.md, "Membrane"): a compressed principal direction keeps
   // compression_scale of its stiffness, as paper wrinkled finer than the mesh carries little compression,
   // up to a principal strain of −compression_limit, beyond which it is as stiff as paper again. 1: off.
-  double compression_scale = 1;
+  double compression_scale = 0.05;
   double compression_limit = 0.05;
   double damping = 2.0;        // 1/s, mass-proportional velocity damping
   double tip_damage = 0.15;    // D of eq. 3, in [0,1]: a tip tears ~7x more easily than fresh paper
@@ -108,6 +108,11 @@ struct Triangles {
   std::vector<int32_t> region;                   // region id (regions system), −1 before it runs
   std::vector<int32_t> piece;                    // connected piece id (topology)
   std::vector<int32_t> side;                     // texture side label (carving), 0 = untouched
+  // The fraction of the triangle's area between a finger's tips: the pinch presses the paper flat there, so
+  // it cannot wrinkle and carries compression (docs/physics.md, "Compression relief"). Derived: the engine
+  // writes it from its fingers (mark_pinched_triangles) before the physics reads it, so remeshing leaves it
+  // alone; entries past its end count as 0.
+  std::vector<double> pinched;
 
   int32_t size() const { return static_cast<int32_t>(tri.size()); }
   void resize(int32_t n) {

@@ -310,7 +310,14 @@ struct Simulation::Impl {
     Skip,  // not read: the state is a fresh cut, not a state of the sheet's motion (relax_after_cut reads
            // the relaxed one)
   };
+  // Triangles::pinched from the fingers as they hold now, before anything computes membrane forces.
+  void mark_pinched() {
+    mark_pinched_triangles(sheet.fingers, sheet.verts.rest, sheet.tris.tri, sheet.topo, kFingertipRadius,
+                           sheet.tris.pinched);
+  }
+
   void substep(double alpha, Reactions reactions = Reactions::Grip) {
+    mark_pinched();
     std::vector<int32_t> held;
     std::vector<Vec3> target;
     held_vertices(alpha, held, target);
@@ -476,8 +483,9 @@ struct Simulation::Impl {
       build_bending_stencils(V.rest, sheet.topo.hinges, bending_stiffness(sheet.material), bending);
       bending_version = sheet.topology_version;
     }
+    mark_pinched();
     run_ranges(T.size(), options.parallel_grain, [&](int32_t b, int32_t e) {
-      compute_membrane_forces(V.x, T.tri, T.rest_inv, T.rest_area, membrane, b, e, T.corner_force);
+      compute_membrane_forces(V.x, T.tri, T.rest_inv, T.rest_area, T.pinched, membrane, b, e, T.corner_force);
     });
     run_ranges(V.size(), options.parallel_grain, [&](int32_t b, int32_t e) {
       gather_corner_forces(sheet.topo, T.tri, T.corner_force, b, e, V.force);
@@ -564,6 +572,7 @@ struct Simulation::Impl {
     // A slipping finger holds again where it is: the cut may have relieved the pull that made it slip.
     regrip_at(physics_alpha);
     if (relaxation == Relaxation::Patch) {
+      mark_pinched();
       std::vector<int32_t> held;
       std::vector<Vec3> target;
       held_vertices(physics_alpha, held, target);

@@ -124,4 +124,73 @@ void update_finger_targets(double t, const std::vector<Hand>& hands, std::vector
   }
 }
 
+namespace {
+
+// Distance from p to the triangle abc (0 inside), pattern.
+double distance_to_triangle(const Vec2& p, const Vec2& a, const Vec2& b, const Vec2& c) {
+  auto cross = [](const Vec2& u, const Vec2& v) { return u.x() * v.y() - u.y() * v.x(); };
+  const double s0 = cross(b - a, p - a), s1 = cross(c - b, p - b), s2 = cross(a - c, p - c);
+  if ((s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0)) return 0;
+  auto segment = [&](const Vec2& u, const Vec2& v) {
+    const Vec2 d = v - u;
+    const double l2 = d.squaredNorm();
+    const double k = l2 > 0 ? std::clamp((p - u).dot(d) / l2, 0.0, 1.0) : 0.0;
+    return (u + k * d - p).norm();
+  };
+  return std::min({segment(a, b), segment(b, c), segment(c, a)});
+}
+
+// Signed area of the intersection of the disc of radius r about the origin with the triangle (0, a, b):
+// the sector of the disc where the segment ab lies outside it, the triangle where inside.
+double disc_wedge_area(const Vec2& a, const Vec2& b, double r) {
+  auto cross = [](const Vec2& u, const Vec2& v) { return u.x() * v.y() - u.y() * v.x(); };
+  auto sector = [&](const Vec2& u, const Vec2& v) { return 0.5 * r * r * std::atan2(cross(u, v), u.dot(v)); };
+  const Vec2 d = b - a;
+  const double qa = d.squaredNorm(), qb = a.dot(d), qc = a.squaredNorm() - r * r;
+  const double discriminant = qb * qb - qa * qc;
+  if (!(qa > 0) || discriminant <= 0) return sector(a, b);  // the line misses the disc
+  const double root = std::sqrt(discriminant);
+  const double t1 = (-qb - root) / qa, t2 = (-qb + root) / qa;  // where the line crosses the circle
+  if (t2 <= 0 || t1 >= 1) return sector(a, b);                  // the segment is outside
+  const Vec2 p1 = a + std::max(t1, 0.0) * d, p2 = a + std::min(t2, 1.0) * d;
+  return sector(a, p1) + 0.5 * cross(p1, p2) + sector(p2, b);
+}
+
+// The fraction of triangle abc's area within r of p, exactly: the wedges of its three edges seen from p.
+double fraction_within(const Vec2& p, double r, const Vec2& a, const Vec2& b, const Vec2& c) {
+  const double area = 0.5 * ((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
+  if (area == 0) return 0;
+  const double inside =
+      disc_wedge_area(a - p, b - p, r) + disc_wedge_area(b - p, c - p, r) + disc_wedge_area(c - p, a - p, r);
+  return std::clamp(inside / area, 0.0, 1.0);
+}
+
+}  // namespace
+
+void mark_pinched_triangles(const std::vector<Finger>& fingers, const std::vector<Vec2>& rest,
+                            const std::vector<Tri>& tri, const Topology& topo, double fingertip_radius,
+                            std::vector<double>& pinched) {
+  const int32_t nt = static_cast<int32_t>(tri.size());
+  pinched.assign(nt, 0.0);
+  std::vector<int32_t> visited, stack;
+  for (const Finger& f : fingers) {
+    if (f.vertex < 0 || f.vertex >= topo.vertex_count()) continue;
+    const Vec2 centre = rest[f.vertex];
+    const double r = std::max(fingertip_radius, f.pad_radius);
+    visited.clear();
+    stack.clear();
+    for (const int32_t t : topo.fan(f.vertex)) stack.push_back(t);
+    while (!stack.empty()) {
+      const int32_t t = stack.back();
+      stack.pop_back();
+      if (t < 0 || t >= nt || std::find(visited.begin(), visited.end(), t) != visited.end()) continue;
+      visited.push_back(t);
+      const Vec2 &a = rest[tri[t][0]], &b = rest[tri[t][1]], &c = rest[tri[t][2]];
+      if (distance_to_triangle(centre, a, b, c) >= r) continue;
+      pinched[t] = std::max(pinched[t], fraction_within(centre, r, a, b, c));
+      for (const int32_t n : topo.neighbor[t]) stack.push_back(n);
+    }
+  }
+}
+
 }  // namespace pt

@@ -47,4 +47,16 @@ void release(Finger& f);
 // Writes Finger::target of every finger for time t.
 void update_finger_targets(double t, const std::vector<Hand>& hands, std::vector<Finger>& fingers);
 
+// The radius of the paper a fingertip presses flat in a pinch (a finger's pad, when larger, counts
+// instead): there the paper cannot wrinkle and carries compression (Triangles::pinched).
+constexpr double kFingertipRadius = 0.005;  // m
+
+// Triangles::pinched: for every triangle, the fraction of its area between a finger's tips, the disc of
+// radius max(fingertip_radius, pad radius) about the finger's vertex in the pattern (slipping or not: the
+// paper slides between them); 0 elsewhere. A finger's fan is always visited, and the triangles beyond it
+// while they come within the disc. `pinched` is rewritten with tri.size() entries; topo must be current.
+void mark_pinched_triangles(const std::vector<Finger>& fingers, const std::vector<Vec2>& rest,
+                            const std::vector<Tri>& tri, const Topology& topo, double fingertip_radius,
+                            std::vector<double>& pinched);
+
 }  // namespace pt

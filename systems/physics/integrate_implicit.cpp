@@ -360,7 +360,9 @@ bool energy_bounded(const Sheet& sheet, ImplicitSolver& s, const ImplicitParams&
       const Mat32& F = frame.F;
       const Mat32& R = frame.R;
       const double tr = (R.transpose() * F).trace() - 2;
-      const double w = mp.thickness * T.rest_area[t] * corotated_energy_density(F, R, tr, mp);
+      const double pinch = pinched_fraction(T.pinched, t);  // a finger's triangle (Triangles::pinched)
+      const double w = mp.thickness * T.rest_area[t] *
+                       corotated_energy_density(F, R, tr, pinch > 0 ? pinched_params(mp, pinch) : mp);
       s.tri_check[t] = {w - (s.tri_energy[t] - h * work + 0.5 * h * h * quad), quad};
     }
   });
@@ -389,13 +391,17 @@ void triangle_forces_and_stiffness(const ImplicitParams& params, const MembraneP
   const int32_t nt = T.size();
   params.run(nt, params.grain, [&](int32_t begin, int32_t end) {
     CorotatedFrame own;  // one polar decomposition per triangle for its forces, energy and stiffness
+    MembraneParams pinched;
     for (int32_t t = begin; t < end; ++t) {
+      const double pinch = pinched_fraction(T.pinched, t);  // a finger's triangle (Triangles::pinched)
+      if (pinch > 0) pinched = pinched_params(mp, pinch);
+      const MembraneParams& mpt = pinch > 0 ? pinched : mp;
       const Tri& c = T.tri[t];
       const std::array<Vec3, 3>& carried = s.next_corners[t];
       const bool reuse = s.next_valid && carried[0] == V.x[c[0]] && carried[1] == V.x[c[1]] && carried[2] == V.x[c[2]];
       if (!reuse) corotated_frame(V.x[c[0]], V.x[c[1]], V.x[c[2]], T.rest_inv[t], own);
       const CorotatedFrame& frame = reuse ? s.next_frame[t] : own;
-      if (with_forces) corotated_corner_forces(frame, T.rest_inv[t], T.rest_area[t], mp, T.corner_force[t]);
+      if (with_forces) corotated_corner_forces(frame, T.rest_inv[t], T.rest_area[t], mpt, T.corner_force[t]);
       const Mat32& F = frame.F;
       const Mat32& R = frame.R;
       const Mat2& Dinv = T.rest_inv[t];
@@ -413,7 +419,7 @@ void triangle_forces_and_stiffness(const ImplicitParams& params, const MembraneP
       strain = 0.5 * (strain + strain.transpose()) - Mat2::Identity();
       Mat2 stress = 2 * mp.mu * strain + mp.lambda * strain.trace() * Mat2::Identity();
       StrainLimitTangent limit;
-      strain_limit_term(strain, mp, stress, &limit);
+      strain_limit_term(strain, mpt, stress, &limit);
       const Mat2 tension = tensile_part(stress);
       // A principal direction v stretched past the strain limit, or compressed under the relief, adds its
       // modulus k along v (negative for the relief's softening): k (g_a·v)(g_b·v) (R v)(R v)ᵀ, the term's
@@ -429,7 +435,7 @@ void triangle_forces_and_stiffness(const ImplicitParams& params, const MembraneP
           brake > 0 ? kBrakeKappa[brake] : std::max(0.0, (mp.mu + mp.lambda) * (i1 - 2) / (mp.mu * i1));
       if (with_forces) {
         const double tr = strain.trace();
-        s.tri_energy[t] = mp.thickness * T.rest_area[t] * corotated_energy_density(F, R, tr, mp);
+        s.tri_energy[t] = mp.thickness * T.rest_area[t] * corotated_energy_density(F, R, tr, mpt);
       }
       Vec3 rg[3], lambda_rg[3], twist_rg[3];
       for (int a = 0; a < 3; ++a) {

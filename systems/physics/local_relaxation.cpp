@@ -2,6 +2,7 @@
 
 #include "systems/common/pattern_geometry.hpp"
 #include "systems/common/topology.hpp"
+#include "systems/physics/membrane_forces.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -115,11 +116,13 @@ LocalRelaxationResult relax_patch_after_cut(const ImplicitParams& params, const 
   patch.verts.resize(pv);
   for (int32_t i = 0; i < pv; ++i) copy_vertex(V, vertices[i], i, patch.verts);
   patch.tris.resize(pt);
+  patch.tris.pinched.assign(pt, 0);
   for (int32_t k = 0; k < pt; ++k) {
     const int32_t t = triangles[k];
     for (int c = 0; c < 3; ++c) patch.tris.tri[k][c] = scratch.patch_vertex[T.tri[t][c]];
     patch.tris.rest_inv[k] = T.rest_inv[t];
     patch.tris.rest_area[k] = T.rest_area[t];
+    patch.tris.pinched[k] = pinched_fraction(T.pinched, t);
   }
   build_topology(patch.tris.tri, pv, patch.topo, scratch.piece);
   patch.topology_version += 1;

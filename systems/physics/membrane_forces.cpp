@@ -128,15 +128,16 @@ double compression_relief_term(double m, double h, double b, double r, const Mem
   }
   const Vec2 v1 = first_eigenvector(h, b, r), v2(-v1.y(), v1.x());
   tau += sigma[0] * (v1 * v1.transpose()) + sigma[1] * (v2 * v2.transpose());
-  // The tangent: a compressed direction keeps c of 2μ, and past the compression limit the full modulus is
-  // back, as past the stretch limit. (No direction is both compressed here and stretched past the limit, so
-  // the stretch term has left these slots free.)
+  // The tangent: a compressed direction keeps c of 2μ (at least tangent_compression_floor of it), and past
+  // the compression limit the full modulus is back, as past the stretch limit. (No direction is both
+  // compressed here and stretched past the limit, so the stretch term has left these slots free.)
   if (tangent) {
-    if (trace < 0) tangent->trace_scale = 1 - relief;
+    const double trelief = std::min(relief, 1 - params.tangent_compression_floor);
+    if (trace < 0) tangent->trace_scale = 1 - trelief;
     for (int i = 0; i < 2; ++i)
       if (e[i] < 0 && tangent->count < 2) {
         tangent->direction[tangent->count] = i == 0 ? v1 : v2;
-        tangent->modulus[tangent->count++] = -relief * 2 * mu + 2 * params.limit_mu * (past_limit[i] > 0);
+        tangent->modulus[tangent->count++] = -trelief * 2 * mu + 2 * params.limit_mu * (past_limit[i] > 0);
       }
   }
   return energy;
@@ -279,15 +280,19 @@ void corotated_corner_forces(const CorotatedFrame& f, const Mat2& rest_inv, doub
 
 void compute_membrane_forces(const std::vector<Vec3>& x, const std::vector<Tri>& tri,
                              const std::vector<Mat2>& rest_inv, const std::vector<double>& rest_area,
-                             const MembraneParams& params, int32_t begin, int32_t end,
-                             std::vector<std::array<Vec3, 3>>& corner_force) {
+                             std::span<const double> pinched, const MembraneParams& params, int32_t begin,
+                             int32_t end, std::vector<std::array<Vec3, 3>>& corner_force) {
   const double two_mu = 2 * params.mu, lambda = params.lambda, e = params.thickness;
   const MembraneParams* limit = params.limit_mu > 0 || params.compression_relief > 0 ? &params : nullptr;
   for (int32_t t = begin; t < end; ++t) {
     const Tri& c = tri[t];
     const CorotatedScalars s = corotated_scalars(x[c[0]].data(), x[c[1]].data(), x[c[2]].data(), rest_inv[t]);
+    const double fraction = pinched_fraction(pinched, t);
+    const MembraneParams own = fraction > 0 ? pinched_params(params, fraction) : MembraneParams{};
+    const MembraneParams* own_limit =
+        fraction > 0 ? (own.limit_mu > 0 || own.compression_relief > 0 ? &own : nullptr) : limit;
     corner_forces_of(s.ax, s.ay, s.az, s.bx, s.by, s.bz, s.rax, s.ray, s.raz, s.rbx, s.rby, s.rbz, s.trS, rest_inv[t],
-                     e * rest_area[t], two_mu, lambda, limit, corner_force[t]);
+                     e * rest_area[t], two_mu, lambda, own_limit, corner_force[t]);
   }
 }
 

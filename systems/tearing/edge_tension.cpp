@@ -44,7 +44,9 @@ EdgeTension edge_tension(const Vertices& verts, const Triangles& tris, const Top
   Mat2 sum = Mat2::Zero();
   double area = 0;
   for (const int32_t t : scratch.triangles) {
-    sum += tris.rest_area[t] * triangle_membrane_stress(verts.x, tris.tri[t], tris.rest_inv[t], membrane);
+    const double pinch = pinched_fraction(tris.pinched, t);
+    sum += tris.rest_area[t] * triangle_membrane_stress(verts.x, tris.tri[t], tris.rest_inv[t],
+                                                        pinch > 0 ? pinched_params(membrane, pinch) : membrane);
     area += tris.rest_area[t];
   }
   out.triangles = static_cast<int32_t>(scratch.triangles.size());

@@ -73,8 +73,10 @@ DrivingForce crack_driving_force(const Vertices& verts, const Triangles& tris, c
     CorotatedFrame frame;
     corotated_frame(verts.x[c[0]], verts.x[c[1]], verts.x[c[2]], rest_inv, frame);
     const double dilation = frame.trace_s - 2;
-    const double energy = corotated_energy_density(frame.F, frame.R, dilation, params);
-    const Eigen::Matrix<double, 3, 2> stress = corotated_stress(frame.F, frame.R, dilation, params);
+    const double pinch = pinched_fraction(tris.pinched, t);  // a finger's triangle (Triangles::pinched)
+    const MembraneParams own = pinch > 0 ? pinched_params(params, pinch) : params;
+    const double energy = corotated_energy_density(frame.F, frame.R, dilation, own);
+    const Eigen::Matrix<double, 3, 2> stress = corotated_stress(frame.F, frame.R, dilation, own);
     const Mat2 eshelby = energy * Mat2::Identity() - frame.F.transpose() * stress;
     sum += tris.rest_area[t] * (eshelby * grad_q);
     ++out.triangles;

@@ -12,8 +12,9 @@
 namespace pt {
 
 double start_wrap_excess(const Sheet& sheet, const TensionRays& rays, std::span<const LoadPoint> loads,
-                         TensionRayDecisionScratch& scratch) {
+                         TensionRayDecisionScratch& scratch, bool* best_straight) {
   double best = std::numeric_limits<double>::infinity();
+  if (best_straight) *best_straight = false;
   const PatternBoundary& boundary = scratch.rays.boundary;  // p's piece, built by compute_tension_rays
   for (const LoadRay& a : rays.rays) {
     if (a.side != 1 || !a.reachable) continue;
@@ -27,7 +28,12 @@ double start_wrap_excess(const Sheet& sheet, const TensionRays& rays, std::span<
     for (const LoadRay& b : rays.rays) {
       if (b.side != -1 || !b.reachable) continue;
       const PatternPath& ab = scratch.between.paths[k++];
-      if (ab.reachable) best = std::min(best, a.path_length + b.path_length - ab.length);
+      if (!ab.reachable) continue;
+      const double excess = a.path_length + b.path_length - ab.length;
+      if (excess < best) {
+        best = excess;
+        if (best_straight) *best_straight = ab.straight;
+      }
     }
   }
   return best;
@@ -113,10 +119,16 @@ PropagationDecision decide_edge_start(const Sheet& sheet, int32_t p, double frac
   // As at an inward corner, the edge opens only where the load between the two sides passes it: tension
   // far off that line (a border bent or curled between the hands, a lip beside a notch) is the sheet's
   // shape, not the pull that tears it. With the loads all on one side no path joins them, and the edge's
-  // tension alone decides (a finger pinching the border).
-  if (rays.left_count > 0 && rays.right_count > 0 && !on_the_loads_path(sheet, rays, params, scratch)) {
-    d.griffith = false;
-    return d;
+  // tension alone decides (a finger pinching the border). A path that bends round a reflex corner leaves
+  // the start to that corner, where its load concentrates: a trouser leg's lip carries the leg's whole
+  // pull under the compression relief, and started tears that cut the leg off.
+  if (rays.left_count > 0 && rays.right_count > 0) {
+    bool straight = false;
+    const double excess = start_wrap_excess(sheet, rays, scratch.loads, scratch, &straight);
+    if (excess > params.start_wrap || !straight) {
+      d.griffith = false;
+      return d;
+    }
   }
   d.angle = rays.theta;
   // Across the edge's tension: the inward normal (the sheet lies left of prev → p → next).

@@ -18,7 +18,9 @@
 //   what starts a tear is the edge pulled apart along its length: Er = N_tt · start_length / e with N_tt
 //   the tension along the edge over a physical disc (systems/tearing/edge_tension.hpp), i.e. a tear starts
 //   when the edge's tension over start_length carries the force of a trouser start, and, when loads lie on
-//   both sides, only within start_wrap of the load's path between them, as at an inward corner. Its
+//   both sides, only within start_wrap of the load's path between them, as at an inward corner, and only
+//   where that path is straight: a path that bends round a reflex corner (a notch's or a tear's tip)
+//   concentrates its load there, and a lip beside the notch carries it without concentration. Its
 //   direction is the rays' when they give one, else straight into the sheet, across the tension.
 #pragma once
 
@@ -51,9 +53,10 @@ struct TensionRayDecisionScratch {
 };
 
 // Why a start point is (not) on the load's path: the smallest d(A, p) + d(p, B) − d(A, B) over left loads
-// A and right loads B of the tension rays `rays` at p, m (infinity when no pair is connected).
+// A and right loads B of the tension rays `rays` at p, m (infinity when no pair is connected); with
+// `best_straight`, whether the shortest path A → B of that pair is straight (bends at no reflex corner).
 double start_wrap_excess(const Sheet& sheet, const TensionRays& rays, std::span<const LoadPoint> loads,
-                         TensionRayDecisionScratch& scratch);
+                         TensionRayDecisionScratch& scratch, bool* best_straight = nullptr);
 
 // A start at a convex or straight boundary point p, from the tension along the edge (see above).
 PropagationDecision decide_edge_start(const Sheet& sheet, int32_t p, double fracture_energy,

@@ -6,6 +6,7 @@
 #include "engine/simulation.hpp"
 #include "engine/simulation_internals.hpp"
 #include "systems/physics/bending_forces.hpp"
+#include "systems/physics/fingers.hpp"
 #include "systems/tearing/candidates.hpp"
 #include "systems/physics/membrane_forces.hpp"
 #include "systems/tearing/regions.hpp"
@@ -37,12 +38,14 @@ EngineOptions one_thread() {
 }
 
 // The internal forces of the sheet's current positions, as the forces system computes them (membrane
-// corner forces gathered per vertex, then bending), in one range: the engine's kernels run one range
-// on a sheet no larger than parallel_grain, so the sums are the same bits.
+// corner forces, with the fingers' pinches, gathered per vertex, then bending), in one range: the engine's
+// kernels run one range on a sheet no larger than parallel_grain, so the sums are the same bits.
 std::vector<Vec3> forces_of(const Sheet& s) {
+  std::vector<double> pinched;
+  mark_pinched_triangles(s.fingers, s.verts.rest, s.tris.tri, s.topo, kFingertipRadius, pinched);
   std::vector<std::array<Vec3, 3>> corner(s.tris.size());
-  compute_membrane_forces(s.verts.x, s.tris.tri, s.tris.rest_inv, s.tris.rest_area, membrane_params(s.material), 0,
-                          s.tris.size(), corner);
+  compute_membrane_forces(s.verts.x, s.tris.tri, s.tris.rest_inv, s.tris.rest_area, pinched,
+                          membrane_params(s.material), 0, s.tris.size(), corner);
   std::vector<Vec3> force(s.verts.size());
   gather_corner_forces(s.topo, s.tris.tri, corner, 0, s.verts.size(), force);
   std::vector<BendingStencil> bending;

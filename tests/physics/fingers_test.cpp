@@ -2,7 +2,11 @@
 // (rotation about the initial centroid, then translation) — distances between a hand's fingers stay.
 #include "systems/physics/fingers.hpp"
 
+#include "tests/test_meshes.hpp"
+
 #include <gtest/gtest.h>
+
+#include <numbers>
 
 using namespace pt;
 
@@ -58,4 +62,40 @@ TEST(Fingers, HandAxisOfAnySizeRotates) {
     EXPECT_TRUE(fingers[0].target.allFinite()) << scale;
     EXPECT_NEAR((fingers[0].target - expected).norm(), 0, 1e-15) << scale << ": " << fingers[0].target.transpose();
   }
+}
+
+// The pinch's disc in the pattern (Triangles::pinched): the pinched fractions weighted by the triangles'
+// areas add up to the disc's area, π r², when it lies inside the sheet, on a coarse mesh (the disc inside
+// one fan) and a fine one (the disc over several rings); nothing farther than r is pinched, every triangle
+// of the finger's fan is, and a pad's larger radius counts instead.
+TEST(Fingers, PinchedFractionsCoverTheFingertipsDisc) {
+  for (const int n : {4, 40}) {
+    Sheet s = test::grid_sheet(0.1, 0.1, n, n, 0.3, 5);
+    Finger f;
+    for (int32_t v = 0; v < s.verts.size(); ++v)  // the vertex nearest the middle (the grid is jittered)
+      if (f.vertex < 0 || (s.verts.rest[v] - Vec2(0.05, 0.05)).norm() < (s.verts.rest[f.vertex] - Vec2(0.05, 0.05)).norm())
+        f.vertex = v;
+    const Vec2 centre = s.verts.rest[f.vertex];
+    for (const double pad : {0.0, 0.012}) {
+      f.pad_radius = pad;
+      const double r = std::max(kFingertipRadius, pad);
+      std::vector<double> pinched;
+      mark_pinched_triangles({f}, s.verts.rest, s.tris.tri, s.topo, kFingertipRadius, pinched);
+      ASSERT_EQ(pinched.size(), static_cast<size_t>(s.tris.size()));
+      double area = 0;
+      for (int32_t t = 0; t < s.tris.size(); ++t) {
+        area += pinched[t] * s.tris.rest_area[t];
+        double nearest = 1e9;
+        for (const int32_t c : s.tris.tri[t]) nearest = std::min(nearest, (s.verts.rest[c] - centre).norm());
+        if (nearest > r + 0.1 / n * 1.5) EXPECT_EQ(pinched[t], 0.0) << n << " " << t;
+      }
+      EXPECT_NEAR(area, std::numbers::pi * r * r, 1e-9 * std::numbers::pi * r * r) << n << " pad " << pad;
+      for (const int32_t t : s.topo.fan(f.vertex)) EXPECT_GT(pinched[t], 0.0) << n;
+    }
+  }
+  // No finger holding: nothing pinched.
+  Sheet s = test::grid_sheet(0.1, 0.1, 4, 4);
+  std::vector<double> pinched;
+  mark_pinched_triangles({Finger{}}, s.verts.rest, s.tris.tri, s.topo, kFingertipRadius, pinched);
+  for (const double p : pinched) EXPECT_EQ(p, 0.0);
 }

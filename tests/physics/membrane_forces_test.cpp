@@ -84,7 +84,8 @@ TEST(MembraneForces, LameParametersArePlaneStressOfTheEffectiveModulus) {
 // The strain-limit term against its closed form: a uniaxial stretch ε along a direction at angle a of the
 // rest frame has principal strains (ε, 0), so W_lim = μ_lim (ε − ε_lim)² and τ = 2 μ_lim (ε − ε_lim) v vᵀ.
 TEST(MembraneForces, StrainLimitTermOfAUniaxialStretch) {
-  const MembraneParams p = paper_params();
+  MembraneParams p = paper_params();
+  p.compression_relief = 0;  // the stretch limit alone (the second principal strain is 0 up to rounding)
   for (const double a : {0.0, 0.4, 1.3, 2.9})
     for (const double eps : {0.005, 0.012, 0.03}) {
       const Vec2 v(std::cos(a), std::sin(a));
@@ -164,6 +165,7 @@ TEST(MembraneForces, ReliefAndLimitTangentsAreTheStressDerivative) {
   params.compression_relief = 0.95;
   params.compression_limit = 0.05;
   params.strain_limit = 0.02;
+  params.tangent_compression_floor = 0;  // the exact derivative (the floor is checked below)
   auto stress = [&](const Mat2& e) {
     Mat2 tau = 2 * params.mu * e + params.lambda * e.trace() * Mat2::Identity();
     strain_limit_term(e, params, tau);
@@ -193,6 +195,16 @@ TEST(MembraneForces, ReliefAndLimitTangentsAreTheStressDerivative) {
         }
       }
     }
+  // With the floor, a direction compressed within the limit keeps that fraction of 2μ, and the trace of λ.
+  params.tangent_compression_floor = 0.2;
+  Mat2 e;
+  e << -0.01, 0, 0, 0.002;
+  Mat2 tau = Mat2::Zero();
+  StrainLimitTangent tangent;
+  strain_limit_term(e, params, tau, &tangent);
+  ASSERT_EQ(tangent.count, 1);
+  EXPECT_NEAR(2 * params.mu + tangent.modulus[0], 0.2 * 2 * params.mu, 1e-9 * params.mu);
+  EXPECT_NEAR(tangent.trace_scale, 0.2, 1e-12);
 }
 TEST(MembraneForces, StrainLimitStiffensPastTheLimit) {
   const MembraneParams params = paper_params();
