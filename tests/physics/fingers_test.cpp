@@ -87,7 +87,9 @@ TEST(Fingers, PinchedFractionsCoverTheFingertipsDisc) {
         area += pinched[t] * s.tris.rest_area[t];
         double nearest = 1e9;
         for (const int32_t c : s.tris.tri[t]) nearest = std::min(nearest, (s.verts.rest[c] - centre).norm());
-        if (nearest > r + 0.1 / n * 1.5) EXPECT_EQ(pinched[t], 0.0) << n << " " << t;
+        if (nearest > r + 0.1 / n * 1.5) {
+          EXPECT_EQ(pinched[t], 0.0) << n << " " << t;
+        }
       }
       EXPECT_NEAR(area, std::numbers::pi * r * r, 1e-9 * std::numbers::pi * r * r) << n << " pad " << pad;
       for (const int32_t t : s.topo.fan(f.vertex)) EXPECT_GT(pinched[t], 0.0) << n;
