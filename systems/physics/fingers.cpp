@@ -1,5 +1,7 @@
 #include "systems/physics/fingers.hpp"
 
+#include "systems/common/pattern_geometry.hpp"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -128,22 +130,15 @@ namespace {
 
 // Distance from p to the triangle abc (0 inside), pattern.
 double distance_to_triangle(const Vec2& p, const Vec2& a, const Vec2& b, const Vec2& c) {
-  auto cross = [](const Vec2& u, const Vec2& v) { return u.x() * v.y() - u.y() * v.x(); };
   const double s0 = cross(b - a, p - a), s1 = cross(c - b, p - b), s2 = cross(a - c, p - c);
   if ((s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0)) return 0;
-  auto segment = [&](const Vec2& u, const Vec2& v) {
-    const Vec2 d = v - u;
-    const double l2 = d.squaredNorm();
-    const double k = l2 > 0 ? std::clamp((p - u).dot(d) / l2, 0.0, 1.0) : 0.0;
-    return (u + k * d - p).norm();
-  };
-  return std::min({segment(a, b), segment(b, c), segment(c, a)});
+  return std::sqrt(std::min({point_segment_distance2(p, a, b), point_segment_distance2(p, b, c),
+                             point_segment_distance2(p, c, a)}));
 }
 
 // Signed area of the intersection of the disc of radius r about the origin with the triangle (0, a, b):
 // the sector of the disc where the segment ab lies outside it, the triangle where inside.
 double disc_wedge_area(const Vec2& a, const Vec2& b, double r) {
-  auto cross = [](const Vec2& u, const Vec2& v) { return u.x() * v.y() - u.y() * v.x(); };
   auto sector = [&](const Vec2& u, const Vec2& v) { return 0.5 * r * r * std::atan2(cross(u, v), u.dot(v)); };
   const Vec2 d = b - a;
   const double qa = d.squaredNorm(), qb = a.dot(d), qc = a.squaredNorm() - r * r;
@@ -158,7 +153,7 @@ double disc_wedge_area(const Vec2& a, const Vec2& b, double r) {
 
 // The fraction of triangle abc's area within r of p, exactly: the wedges of its three edges seen from p.
 double fraction_within(const Vec2& p, double r, const Vec2& a, const Vec2& b, const Vec2& c) {
-  const double area = 0.5 * ((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
+  const double area = 0.5 * cross(b - a, c - a);
   if (area == 0) return 0;
   const double inside =
       disc_wedge_area(a - p, b - p, r) + disc_wedge_area(b - p, c - p, r) + disc_wedge_area(c - p, a - p, r);

@@ -284,13 +284,14 @@ void compute_membrane_forces(const std::vector<Vec3>& x, const std::vector<Tri>&
                              int32_t end, std::vector<std::array<Vec3, 3>>& corner_force) {
   const double two_mu = 2 * params.mu, lambda = params.lambda, e = params.thickness;
   const MembraneParams* limit = params.limit_mu > 0 || params.compression_relief > 0 ? &params : nullptr;
+  MembraneParams pinched_own;
   for (int32_t t = begin; t < end; ++t) {
     const Tri& c = tri[t];
     const CorotatedScalars s = corotated_scalars(x[c[0]].data(), x[c[1]].data(), x[c[2]].data(), rest_inv[t]);
+    // A pinched triangle's own parameters, built only for the few a finger holds (Triangles::pinched).
     const double fraction = pinched_fraction(pinched, t);
-    const MembraneParams own = fraction > 0 ? pinched_params(params, fraction) : MembraneParams{};
-    const MembraneParams* own_limit =
-        fraction > 0 ? (own.limit_mu > 0 || own.compression_relief > 0 ? &own : nullptr) : limit;
+    if (fraction > 0) pinched_own = pinched_params(params, fraction);
+    const MembraneParams* own_limit = fraction > 0 ? &pinched_own : limit;
     corner_forces_of(s.ax, s.ay, s.az, s.bx, s.by, s.bz, s.rax, s.ray, s.raz, s.rbx, s.rby, s.rbz, s.trS, rest_inv[t],
                      e * rest_area[t], two_mu, lambda, own_limit, corner_force[t]);
   }
