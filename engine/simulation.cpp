@@ -310,10 +310,25 @@ struct Simulation::Impl {
     Skip,  // not read: the state is a fresh cut, not a state of the sheet's motion (relax_after_cut reads
            // the relaxed one)
   };
-  // Triangles::pinched from the fingers as they hold now, before anything computes membrane forces.
+  // Triangles::pinched from the fingers as they hold now, before anything computes membrane forces. It
+  // depends only on the topology and on which vertex each finger holds with which pad, so it is rebuilt
+  // only when one of those changed (a substep's forces, its stop bisection and the relaxation all ask).
+  struct PinchKey {
+    uint64_t topology = ~uint64_t{0};
+    size_t triangles = 0;
+    std::vector<std::pair<int32_t, double>> holds;  // per finger: vertex, pad radius
+    bool operator==(const PinchKey&) const = default;
+  };
+  PinchKey pinch_key, pinch_probe;
   void mark_pinched() {
+    pinch_probe.topology = sheet.topology_version;
+    pinch_probe.triangles = sheet.tris.tri.size();
+    pinch_probe.holds.clear();
+    for (const Finger& f : sheet.fingers) pinch_probe.holds.emplace_back(f.vertex, f.pad_radius);
+    if (pinch_probe == pinch_key && sheet.tris.pinched.size() == sheet.tris.tri.size()) return;
     mark_pinched_triangles(sheet.fingers, sheet.verts.rest, sheet.tris.tri, sheet.topo, kFingertipRadius,
                            sheet.tris.pinched);
+    std::swap(pinch_key, pinch_probe);
   }
 
   void substep(double alpha, Reactions reactions = Reactions::Grip) {
