@@ -251,6 +251,34 @@ TEST(Simulation, AHandPutOnLaterTurnsAboutWhereItGrabs) {
   EXPECT_NEAR((c.target - centroid).dot(y), (c.start - centroid).dot(y), 1e-12);
 }
 
+// Triangles::pinched is rebuilt only when the topology or a finger's hold changes; after every frame it is
+// what the fingers holding then give, through a pad, a hand put on later and a finger letting go.
+TEST(Simulation, PinchesFollowTheFingersThatHold) {
+  Scenario s = parse_scenario(R"({
+    "sheet": {"preset": "A6", "triangles": 120},
+    "sim": {"frames": 24, "fps": 30},
+    "fingers": [{"name": "A", "at": [0.05, 0.14], "pad": 0.008, "release": 0.6},
+                {"name": "C", "at": [0.03, 0.05], "attach": 0.3}, {"name": "D", "at": [0.07, 0.05], "attach": 0.3}],
+    "hands": [{"name": "lower", "fingers": ["C", "D"],
+               "keys": [[0.3, {"rotate_deg": 0, "axis": [0, 1, 0]}], [0.8, {"rotate_deg": 60, "axis": [0, 1, 0]}]]}]
+  })", "pinches-follow.json");
+  Simulation sim(s, one_thread());
+  std::vector<double> fresh;
+  int holds_seen = 0;  // distinct sets of holding fingers met: A alone, A with C and D, C and D
+  std::vector<bool> last_holding;
+  for (int f = 0; f < 24; ++f) {
+    sim.step();
+    const Sheet& sh = sim.sheet();
+    mark_pinched_triangles(sh.fingers, sh.verts.rest, sh.tris.tri, sh.topo, kFingertipRadius, fresh);
+    ASSERT_EQ(sh.tris.pinched, fresh) << "frame " << f;
+    std::vector<bool> holding;
+    for (const Finger& finger : sh.fingers) holding.push_back(finger.vertex >= 0);
+    if (holding != last_holding) ++holds_seen;
+    last_holding = holding;
+  }
+  EXPECT_EQ(holds_seen, 3);
+}
+
 namespace {
 
 // A 10 cm × 2 cm strip without gravity held by one finger 1 cm from its end, whose hand turns 20° about
