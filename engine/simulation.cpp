@@ -124,6 +124,8 @@ struct Simulation::Impl {
   SelfContactBroadPhasePtr self_contact_broad;
   SelfContactStats self_contact_stats;   // summed over the run
   std::vector<Vec3> self_contact_start;  // x the substep started from
+  std::vector<Vec3> self_contact_predicted;  // and where it would go: x + h v, held vertices at their targets
+  std::vector<ProximityPair> self_pairs;  // kept apart in the implicit solve
   std::vector<double> self_contact_inverse_mass;
   std::function<void(const Sheet&)> substep_observer;  // tests: called after each substep
   int64_t patch_failures = 0;  // patch relaxations the implicit step refused (reported with the solver's)
@@ -192,6 +194,7 @@ struct Simulation::Impl {
     implicit_params.contact_offset = 0.5 * m.thickness;
     self_contact.gap = scenario.sim.self_contact.gap;
     self_contact.friction = scenario.sim.self_contact.friction;
+    self_contact.repulsions = false;  // the implicit step keeps the pairs apart (find_self_pairs)
     self_contact.dt = implicit_params.dt;
     membrane = membrane_params(m);
     take_propagation_params(m);
@@ -341,14 +344,30 @@ struct Simulation::Impl {
     slipping_pinches(sheet.verts, sheet.fingers, hold_points, kPinchStiffness, implicit_params.springs);
     // verts.force now holds the internal forces of the state this substep started from: the fingers'
     // reactions during it.
-    if (scenario.sim.self_contact.on) self_contact_start = sheet.verts.x;
-    if (!implicit_substep(implicit_params, held, target, implicit, sheet)) return;
+    if (scenario.sim.self_contact.on) find_self_pairs(held, target);
+    const bool stepped = implicit_substep(implicit_params, held, target, implicit, sheet);
+    implicit_params.self_pairs = nullptr;  // this sheet's, for this step only (the patch relaxation has its own)
+    if (!stepped) return;
     if (scenario.sim.self_contact.on) resolve_substep_self_contact(held);
     if (substep_observer) substep_observer(sheet);
     if (reactions == Reactions::Grip)
       check_grip(sheet.verts, scenario.sim.gravity, sheet.fingers);
     else if (reactions == Reactions::Read)
       read_reactions(sheet.verts, scenario.sim.gravity, sheet.fingers);
+  }
+
+  // The pairs the implicit step keeps apart in its solve: those near at the substep's start or on the
+  // paths it predicts (free vertices moving on at their velocity, held ones to their targets).
+  void find_self_pairs(const std::vector<int32_t>& held, const std::vector<Vec3>& target) {
+    const Vertices& V = sheet.verts;
+    self_contact_start = V.x;
+    self_contact_predicted.resize(V.x.size());
+    for (size_t i = 0; i < V.x.size(); ++i) self_contact_predicted[i] = V.x[i] + implicit_params.dt * V.v[i];
+    for (size_t k = 0; k < held.size(); ++k) self_contact_predicted[held[k]] = target[k];
+    self_contact_stats += self_contact_proximities(self_contact, sheet.tris.tri, V.rest, V.x, self_contact_predicted,
+                                                   self_contact_broad, self_pairs);
+    implicit_params.self_pairs = &self_pairs;
+    implicit_params.self_gap = self_contact.gap;
   }
 
   // The substep's motion from self_contact_start to x made free of self-intersections (held vertices keep

@@ -106,8 +106,8 @@ def main():
         summarize(rows)
 
 
-# The scenes that must not tear: a sheet pushed together, bent or waved (docs/physics.md).
-PASSIVE = {"push-together", "bent-cylinder", "waved-corners"}
+# The scenes that must not tear: a sheet pushed together, bent, waved or folded (docs/physics.md).
+PASSIVE = {"push-together", "bent-cylinder", "waved-corners", "fold-half"}
 
 
 def spread(values, fmt):

@@ -88,10 +88,12 @@ struct ImplicitSolver {
     Vec3 friction = Vec3::Zero();  // sliding: the friction impulse, −μ λ along the motion, on the right-hand side
     double reaction = 0;  // normal impulse of the constraint over the substep, N·s (> 0: it supports)
     Vec3 impulse = Vec3::Zero();  // the constraint's whole impulse A v − b − friction
+    int32_t pair = -1;    // an entry of ImplicitParams::self_pairs (its target follows the triangle), −1 an obstacle
   };
   std::vector<RestingContact> resting;
   std::vector<int32_t> resting_of_row;             // free row → its entry of `resting`, −1 when none
   std::vector<uint8_t> constrained;                // per vertex: in `resting`
+  std::vector<int32_t> obstacle_of_vertex;         // per vertex: its obstacle constraint in `resting`, −1 none
   std::vector<Mat3> unfiltered_values;             // the matrix and right-hand side before the filter,
   Eigen::VectorXd unfiltered_rhs;                  // for the constraints' reactions
 
@@ -127,7 +129,7 @@ size_t implicit_solver_bytes(const ImplicitSolver& s) {
          capacity_bytes(s.tri_check) + capacity_bytes(s.next_frame) + capacity_bytes(s.next_corners) +
          static_cast<size_t>(s.rhs.size() + s.solution.size()) * sizeof(double) + capacity_bytes(s.velocity_next) +
          capacity_bytes(s.pair_row) + capacity_bytes(s.pair_column) +
-         capacity_bytes(s.pair_key) + capacity_bytes(s.resting) + capacity_bytes(s.resting_of_row) + capacity_bytes(s.constrained) +
+         capacity_bytes(s.pair_key) + capacity_bytes(s.resting) + capacity_bytes(s.resting_of_row) + capacity_bytes(s.constrained) + capacity_bytes(s.obstacle_of_vertex) +
          capacity_bytes(s.unfiltered_values) + static_cast<size_t>(s.unfiltered_rhs.size()) * sizeof(double);
 }
 
@@ -645,7 +647,13 @@ bool assemble_and_solve(const ImplicitParams& params, double kscale, const Verti
 bool solve_with_energy_check(const ImplicitParams& params, const MembraneParams& mp, double kscale, int& brake,
                              Sheet& sheet, ImplicitSolver& s) {
   if (!assemble_and_solve(params, kscale, sheet.verts, sheet.tris, s)) return false;
-  while (brake < kBrakeLevels - 1 && !energy_bounded(sheet, s, params, kscale, mp)) {
+  // A step with self-contact constraints is not braked: their vertices stop against a layer within the
+  // step while their neighbours move on, an inelastic impact whose membrane energy the linearised model
+  // misses by more than the step dissipates, and bracing every rotation against it (the spin brake) made a
+  // folded sheet's fingers jump to their 15 N grip as its top layer landed (docs/physics.md, "Self-contact").
+  const bool impact = std::any_of(s.resting.begin(), s.resting.end(),
+                                  [](const ImplicitSolver::RestingContact& c) { return c.pair >= 0; });
+  while (brake < kBrakeLevels - 1 && !impact && !energy_bounded(sheet, s, params, kscale, mp)) {
     brake += 1;
     s.stats.brakes += 1;
     s.brake = brake;
@@ -662,7 +670,6 @@ bool solve_with_energy_check(const ImplicitParams& params, const MembraneParams&
 // dropped over a box gained energy, 1.7 mJ at its impact, and never came to rest). Then solve again; a
 // few rounds at most, what is left is caught by the pass after the solve. True when the set changed.
 bool update_contacts(const ImplicitParams& params, const Vertices& V, ImplicitSolver& s) {
-  const int32_t nv = V.size();
   const double h = params.dt;
   std::vector<Vec3>& vnext = s.velocity_next;
   ScopedTimer timer(s.stats.contact_ms);
@@ -677,6 +684,7 @@ bool update_contacts(const ImplicitParams& params, const Vertices& V, ImplicitSo
     // μ λ; one that slides gets the friction impulse μ λ against its motion (from the last solve). A slider
     // whose momentum along the surface, friction taken off, is within μ λ sticks.
     for (ImplicitSolver::RestingContact& c : s.resting) {
+      if (c.pair >= 0) continue;  // frictionless in the solve; the pass after it applies friction
       const double cap = c.mu * c.reaction;
       if (c.stick) {
         const Vec3 along = c.impulse - c.normal * c.reaction;
@@ -699,6 +707,17 @@ bool update_contacts(const ImplicitParams& params, const Vertices& V, ImplicitSo
       c.friction = friction;
     }
   }
+  return changed;
+}
+
+// Free vertices not otherwise constrained whose step would enter an obstacle land on it (above). After the
+// self-contact pairs, which come first: a layer lying on another on a table lands on that layer.
+bool obstacle_arrivals(const ImplicitParams& params, const Vertices& V, ImplicitSolver& s) {
+  const int32_t nv = V.size();
+  const double h = params.dt;
+  const std::vector<Vec3>& vnext = s.velocity_next;
+  ScopedTimer timer(s.stats.contact_ms);
+  bool changed = false;
   s.constrained.assign(nv, 0);
   for (const ImplicitSolver::RestingContact& c : s.resting) s.constrained[c.vertex] = 1;
   for (int32_t v = 0; v < nv; ++v) {
@@ -709,6 +728,69 @@ bool update_contacts(const ImplicitParams& params, const Vertices& V, ImplicitSo
       continue;
     s.resting.push_back({v, s.free_index[v], n, friction, -n.dot(V.x[v] - on) / h});
     s.stats.arrivals += 1;
+    changed = true;
+  }
+  return changed;
+}
+
+// Self-contact in the solve. A pair may close to its goal over the substep: the vertex's distance at the
+// start plus a tenth of what it lacks of the gap (Bridson et al. 2002's repulsion, which opens a pair that
+// is too close gently rather than at once), or the gap for a pair arriving from farther. A free vertex not
+// otherwise constrained whose step, with the velocities `v`, would bring it nearer its triangle than that
+// is constrained to arrive there: its velocity along the normal is the triangle point's plus what closes the
+// distance to the goal. Existing pair constraints take the triangle's new velocity (the pairs' two sides
+// are solved in turn, round by round). True when the set changed.
+double self_pair_goal(const ProximityPair& q, double gap) {
+  return q.distance < gap ? q.distance + 0.1 * (gap - q.distance) : gap;
+}
+
+// The triangle's velocity along the pair's normal at its nearest point; a corner resting on an obstacle
+// moves as its constraint prescribes (the solve that gave `v` may have had it sinking, before it arrived).
+double triangle_normal_velocity(const ProximityPair& q, const std::vector<Vec3>& v, const ImplicitSolver& s) {
+  double vn = 0;
+  for (int i = 0; i < 3; ++i) {
+    Vec3 vi = v[q.triangle[i]];
+    const int32_t c = s.obstacle_of_vertex.empty() ? -1 : s.obstacle_of_vertex[q.triangle[i]];
+    if (c >= 0) vi += s.resting[c].normal * (s.resting[c].target - s.resting[c].normal.dot(vi));
+    vn += q.weights[i] * q.normal.dot(vi);
+  }
+  return vn;
+}
+
+bool update_self_contacts(const ImplicitParams& params, const Vertices& V, const std::vector<Vec3>& v, ImplicitSolver& s) {
+  if (!params.self_pairs || params.self_pairs->empty()) return false;
+  ScopedTimer timer(s.stats.contact_ms);
+  const std::vector<ProximityPair>& pairs = *params.self_pairs;
+  const double h = params.dt;
+  s.obstacle_of_vertex.assign(v.size(), -1);
+  for (size_t c = 0; c < s.resting.size(); ++c)
+    if (s.resting[c].pair < 0) s.obstacle_of_vertex[s.resting[c].vertex] = static_cast<int32_t>(c);
+  for (ImplicitSolver::RestingContact& c : s.resting) {
+    if (c.pair < 0) continue;
+    const ProximityPair& q = pairs[c.pair];
+    c.target = triangle_normal_velocity(q, v, s) + (self_pair_goal(q, params.self_gap) - q.distance) / h;
+  }
+  s.constrained.assign(v.size(), 0);
+  for (const ImplicitSolver::RestingContact& c : s.resting) s.constrained[c.vertex] = 1;
+  bool changed = false;
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    const ProximityPair& q = pairs[k];
+    if (s.free_index[q.vertex] < 0 || s.constrained[q.vertex]) continue;
+    const double goal = self_pair_goal(q, params.self_gap);
+    const double vt = triangle_normal_velocity(q, v, s);
+    if (q.distance + h * (q.normal.dot(v[q.vertex]) - vt) >= goal) continue;
+    // An obstacle wins: a pair that would push its vertex into one (a layer's vertex under another, on a
+    // table) is left to the pass after the solve.
+    const Vec3 to = V.x[q.vertex] + h * (v[q.vertex] + (vt + (goal - q.distance) / h - q.normal.dot(v[q.vertex])) * q.normal);
+    Vec3 n_o, on;
+    double mu_o = 0;
+    if (!params.obstacles.empty() && entered_surface(params.obstacles, params.contact_offset, V.x[q.vertex], to, n_o, on, mu_o))
+      continue;
+    ImplicitSolver::RestingContact c{q.vertex, s.free_index[q.vertex], q.normal, 0.0, vt + (goal - q.distance) / h};
+    c.pair = static_cast<int32_t>(k);
+    s.resting.push_back(c);
+    s.constrained[q.vertex] = 1;
+    s.stats.self_arrivals += 1;
     changed = true;
   }
   return changed;
@@ -776,10 +858,17 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   add_bending_forces(V.x, s.stencils, V.force);
 
   find_resting_contacts(params, V, s);
+  const bool self_pairs = params.self_pairs && !params.self_pairs->empty();
+  if (self_pairs) update_self_contacts(params, V, V.v, s);  // the first solve's guess: the velocities at the start
 
   if (!solve_with_energy_check(params, mp, kscale, brake, sheet, s)) return false;
-  for (int round = 0; round < 4 && !params.obstacles.empty() && update_contacts(params, V, s); ++round)
+  for (int round = 0; round < 4 && (!params.obstacles.empty() || self_pairs); ++round) {
+    bool changed = update_contacts(params, V, s);
+    if (self_pairs) changed = update_self_contacts(params, V, vnext, s) || changed;
+    if (!params.obstacles.empty()) changed = obstacle_arrivals(params, V, s) || changed;
+    if (!changed) break;
     if (!solve_with_energy_check(params, mp, kscale, brake, sheet, s)) return false;
+  }
   // The rounds end with friction taken from the motion of the solve before the last: where that friction
   // now pushes, the vertex sticks and the step is solved once more.
   if (!params.obstacles.empty() && friction_pushes(s))
@@ -805,7 +894,7 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
     }
     // A vertex that landed this substep stops there (inelastic): its velocity into the surface is spent.
     for (const ImplicitSolver::RestingContact& c : s.resting)
-      if (c.target != 0) V.v[c.vertex] -= c.normal * std::min(0.0, c.normal.dot(V.v[c.vertex]));
+      if (c.target != 0 && c.pair < 0) V.v[c.vertex] -= c.normal * std::min(0.0, c.normal.dot(V.v[c.vertex]));
   }
   for (size_t k = 0; k < held.size(); ++k) V.x[held[k]] = held_target[k];  // exact, no rounding drift
   return true;

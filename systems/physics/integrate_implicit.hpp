@@ -39,6 +39,7 @@
 #include "components/sheet.hpp"
 #include "systems/physics/bending_forces.hpp"
 #include "systems/physics/membrane_forces.hpp"
+#include "systems/physics/self_contact.hpp"
 #include "systems/common/parallel.hpp"
 
 #include <memory>
@@ -63,6 +64,12 @@ struct ImplicitParams {
   // Coulomb friction (systems/physics/contact.hpp). Empty: the step is unchanged.
   std::vector<Obstacle> obstacles;
   double contact_offset = 0;
+  // Self-contact in the solve (docs/physics.md, "Self-contact"): each pair's vertex, where the step would
+  // bring it nearer its triangle than it may come, has its velocity along the pair's normal prescribed to
+  // the triangle's there plus what opens the pair to its goal (self_gap), as a vertex resting on a moving
+  // obstacle, so the membrane answers in the same solve. Null or empty: the step is unchanged.
+  const std::vector<ProximityPair>* self_pairs = nullptr;
+  double self_gap = 0;
 };
 
 struct ImplicitSolver;
@@ -81,6 +88,7 @@ struct ImplicitStats {
   int64_t resting_contacts = 0;  // vertex-substeps resting on an obstacle, filtered in the solve
   int64_t arrivals = 0;        // vertices landing on an obstacle, constrained to its surface in a second solve
   int64_t releases = 0;        // resting vertices released because their support would pull (the step solved again)
+  int64_t self_arrivals = 0;   // self-contact pairs constrained in the solve (ImplicitParams::self_pairs)
   // Wall time in ms, summed over the solver's life, of its parts: the block structure after a topology or
   // held-set change (pairs, keys, constant values, destinations; the analysis excluded), the symbolic
   // analyses, the assembly of matrix values and right-hand side, the numeric factorisations and the

@@ -597,6 +597,47 @@ struct Pass {
 
 }  // namespace
 
+SelfContactStats self_contact_proximities(const SelfContactParams& params, const std::vector<Tri>& tris,
+                                          const std::vector<Vec2>& rest, const std::vector<Vec3>& x0,
+                                          const std::vector<Vec3>& x1, SelfContactBroadPhasePtr& broad,
+                                          std::vector<ProximityPair>& out) {
+  out.clear();
+  SelfContactStats stats;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<Vec3> x = x1, v(x1.size(), Vec3::Zero());
+  const std::vector<double> no_mass;
+  Pass pass{params, tris, rest, x0, no_mass, broad, x, v, stats, {}, {}, {}};
+  pass.gather(2 * params.gap);
+  for (const Element& e : pass.elements) {
+    if (e.kind != 0) continue;
+    const auto p = pass.start(e);
+    const Closest c = closest(e, p[0], p[1], p[2], p[3]);
+    double dist = c.d.norm();
+    if (!(dist > 1e-6 * params.gap)) continue;
+    Vec3 moved = Vec3::Zero();
+    for (int i = 0; i < 4; ++i) moved += c.w[i] * (x1[e.id[i]] - x0[e.id[i]]);
+    if (dist >= 2 * params.gap + moved.norm()) continue;
+    // A vertex over the triangle, or beside its border by less than the gap, is kept off its plane: a
+    // folded layer's border lies right over the other layer's, and a normal from the nearest point on the
+    // border, tilted, let the vertex slide off it and down beside it.
+    Vec3 n = c.d / dist;
+    const Vec3 face = (p[2] - p[1]).cross(p[3] - p[1]);
+    if (face.norm() > 0) {
+      const Vec3 f = face.normalized();
+      const double across = f.dot(c.d);
+      if ((c.d - across * f).norm() < params.gap && std::abs(across) > 1e-6 * params.gap) {
+        n = across > 0 ? f : Vec3(-f);
+        dist = std::abs(across);
+      }
+    }
+    out.push_back({e.id[0], {e.id[1], e.id[2], e.id[3]}, {-c.w[1], -c.w[2], -c.w[3]}, n, dist});
+  }
+  // The elements are sorted by (vertex, triangle corners): so is `out`.
+  stats.proximities = static_cast<int64_t>(out.size());
+  stats.ms = ms_since(t0);
+  return stats;
+}
+
 SelfContactStats resolve_self_contact(const SelfContactParams& params, const std::vector<Tri>& tris,
                                       const std::vector<Vec2>& rest, const std::vector<Vec3>& x0,
                                       const std::vector<double>& inverse_mass, SelfContactBroadPhasePtr& broad,
@@ -605,7 +646,7 @@ SelfContactStats resolve_self_contact(const SelfContactParams& params, const std
   const auto t0 = std::chrono::steady_clock::now();
   Pass pass{params, tris, rest, x0, inverse_mass, broad, x, v, stats, {}, {}, {}};
   [&] {
-    pass.repulsions();
+    if (params.repulsions) pass.repulsions();
     for (int32_t k = 0; k < params.ccd_passes; ++k) {
       const int64_t hits = pass.collisions(true, nullptr);
       stats.collisions += hits;

@@ -34,6 +34,7 @@
 
 #include "components/sheet.hpp"
 
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -46,11 +47,17 @@ struct SelfContactParams {
   double ccd_tolerance = 0;   // m: a coplanar pair closer than this collides; 0: gap / 100
   int32_t ccd_passes = 4;     // collision passes before the impact zones
   int32_t zone_passes = 16;   // impact-zone rounds (rigid, then translation)
+  // The repulsions after the step. Off when the implicit step kept the vertex–triangle pairs apart in its
+  // solve (ProximityPair, below): impulses after it kick single vertices of the stiff membrane (with edge–
+  // edge repulsions alone an A5 sheet folded on a table still tore 62 times), and the collision passes and
+  // impact zones remain the fail-safe.
+  bool repulsions = true;
 };
 
 struct SelfContactStats {
   int64_t candidates = 0;   // triangle pairs the broad phase reported (all passes)
-  int64_t proximities = 0;  // vertex–triangle and edge–edge pairs within the gap at x0
+  int64_t proximities = 0;  // vertex–triangle and edge–edge pairs within the gap at x0 (with the pairs kept
+                            // apart in the solve, those pairs: ProximityPair)
   int64_t repulsions = 0;   // of those, pairs an impulse was applied to
   int64_t collisions = 0;   // pairs the CCD passes stopped
   int64_t zones = 0;        // impact zones made rigid
@@ -89,6 +96,29 @@ bool vertex_triangle_ccd(const Vec3& p0, const Vec3& a0, const Vec3& b0, const V
 // The same for edges (a, b) and (c, d).
 bool edge_edge_ccd(const Vec3& a0, const Vec3& b0, const Vec3& c0, const Vec3& d0, const Vec3& a1, const Vec3& b1,
                    const Vec3& c1, const Vec3& d1, double tolerance, double& t);
+
+// A free vertex near a triangle of the sheet that is not its neighbour at the substep's start: a pair the
+// implicit step keeps apart in its own solve (systems/physics/integrate_implicit.hpp, ImplicitParams::
+// self_pairs), so the membrane answers the contact in the same step instead of to an impulse after it.
+struct ProximityPair {
+  int32_t vertex = -1;
+  std::array<int32_t, 3> triangle{};
+  std::array<double, 3> weights{};  // barycentric coordinates of the triangle's point nearest the vertex at x0
+  Vec3 normal = Vec3::Zero();       // unit, from that point to the vertex at x0
+  double distance = 0;              // between them at x0, m
+};
+
+// The vertex–triangle pairs (Bridson et al. 2002's proximities) that are within twice `params.gap` at `x0`,
+// or whose predicted paths x0 → x1 may bring them within it: the vertex within twice the gap plus their
+// relative displacement of the triangle's nearest point at x0 (the solve's motion is not the prediction's). Neighbours in the sheet are excluded as in
+// resolve_self_contact; pairs whose vertex and triangle touch (closer than 1e-6 gap) are left to it, having
+// no normal. Sorted by (vertex, triangle): deterministic.
+// Returns what it found and took: `proximities` the pairs, `candidates` the broad phase's triangle pairs,
+// `ms` its wall time.
+SelfContactStats self_contact_proximities(const SelfContactParams& params, const std::vector<Tri>& tris,
+                                          const std::vector<Vec2>& rest, const std::vector<Vec3>& x0,
+                                          const std::vector<Vec3>& x1, SelfContactBroadPhasePtr& broad,
+                                          std::vector<ProximityPair>& out);
 
 // One substep's self-contact: `x0` the positions the substep started from, `inverse_mass` per vertex (0 for
 // held vertices), `rest` the pattern positions (twins of a tear), `tris` the triangles; `x` and `v` the

@@ -122,6 +122,56 @@ TEST(SelfContact, WithoutItTheSheetsPassThrough) {
   EXPECT_GT(count_self_intersections(s.x, s.tris).intersecting, 0);
 }
 
+// The pairs the implicit step keeps apart (self_contact_proximities): every vertex of the upper sheet
+// within twice the gap of the lower one pairs with a lower triangle, with the face's normal pointing up
+// and its distance to the plane; none pairs with its own sheet (its triangles are neighbours or farther
+// than the gap); a vertex beyond the lower sheet's border by less than the gap keeps the face's normal
+// (a folded layer's border over the other's), and one farther beside it gets none.
+TEST(SelfContactProximities, PairsAreOverTheOtherLayerWithTheFacesNormal) {
+  const double gap = 3e-4;
+  TwoSheets s = two_sheets(8, 4e-4, 0, 5);
+  SelfContactParams params;
+  params.gap = gap;
+  SelfContactBroadPhasePtr broad;
+  std::vector<ProximityPair> pairs;
+  self_contact_proximities(params, s.tris, s.rest, s.x, s.x, broad, pairs);
+  std::vector<int32_t> paired;
+  for (const ProximityPair& q : pairs) {
+    const bool upper = q.vertex >= s.upper_first;
+    for (const int32_t c : q.triangle) EXPECT_NE(upper, c >= s.upper_first) << "a pair within one sheet";
+    const Vec3 on = q.weights[0] * s.x[q.triangle[0]] + q.weights[1] * s.x[q.triangle[1]] + q.weights[2] * s.x[q.triangle[2]];
+    EXPECT_NEAR(q.normal.norm(), 1, 1e-12);
+    EXPECT_NEAR(q.normal.dot(s.x[q.vertex] - on), q.distance, 1e-12);
+    // Over the face, or beside its border by less than the gap: the face's normal and the height above
+    // it; farther beside the border (the jittered sheets' borders differ), from the nearest point.
+    if (std::abs(q.normal.z()) > 1 - 1e-12) EXPECT_NEAR(q.distance, 4e-4, 1e-12);
+    else EXPECT_NEAR((s.x[q.vertex] - on).norm(), q.distance, 1e-12);
+    EXPECT_GE(q.distance, 4e-4 - 1e-12);
+    EXPECT_EQ(q.normal.z() > 0, upper) << "from the triangle to the vertex";
+    if (upper) paired.push_back(q.vertex);
+  }
+  std::sort(paired.begin(), paired.end());
+  paired.erase(std::unique(paired.begin(), paired.end()), paired.end());
+  EXPECT_EQ(paired.size(), s.x.size() - s.upper_first) << "every upper vertex is over the lower sheet";
+  EXPECT_TRUE(std::is_sorted(pairs.begin(), pairs.end(), [](const ProximityPair& a, const ProximityPair& b) {
+    return a.vertex != b.vertex ? a.vertex < b.vertex : a.triangle < b.triangle;
+  }));
+
+  // The upper sheet moved 0.1 mm (under the gap) or 1 mm beyond the lower sheet's x = 0 border.
+  for (const double beyond : {1e-4, 1e-3}) {
+    TwoSheets side = two_sheets(8, 2e-4, 0, 5);
+    for (int32_t i = side.upper_first; i < static_cast<int32_t>(side.x.size()); ++i) side.x[i].x() -= 0.1 + beyond;
+    self_contact_proximities(params, side.tris, side.rest, side.x, side.x, broad, pairs);
+    int32_t over_the_face = 0;
+    for (const ProximityPair& q : pairs)
+      if (q.vertex >= side.upper_first) over_the_face += std::abs(q.normal.z()) > 1 - 1e-12;
+    if (beyond < gap)
+      EXPECT_GT(over_the_face, 0) << "beside the border by less than the gap: off the face's plane";
+    else
+      EXPECT_EQ(over_the_face, 0) << "farther beside the border: no face pair";
+  }
+}
+
 TEST(SelfContact, PairImpulsesConserveMomentum) {
   TwoSheets s = two_sheets(10, 0.001, 0.01, 11);
   for (int32_t i = s.upper_first; i < static_cast<int32_t>(s.x.size()); ++i) s.v[i] = Vec3(0.3, -0.1, -2.0);
