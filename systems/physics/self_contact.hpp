@@ -1,35 +1,38 @@
-// Contact of the sheet with itself and between its torn pieces, after each implicit substep (issue 25;
-// docs/physics.md, "Self-contact").
+// Contact of the sheet with itself and between its torn pieces (issue 25; docs/physics.md, "Self-contact").
 //
-// Method: Bridson, Fedkiw & Anderson 2002 ("Robust treatment of collisions, contact and friction for cloth
-// animation"), applied to the substep's motion x0 → x1 (the implicit step's start and end):
+// In the implicit step: self_contact_proximities (below) finds the vertex–triangle pairs near at the
+// substep's start or on its predicted path, and the step keeps them apart in its own solve
+// (systems/physics/integrate_implicit.hpp, ImplicitParams::self_pairs), so the stiff membrane answers the
+// contact in the same step. Impulses after the solve (Bridson's repulsions) kicked single vertices of it:
+// a sheet folded onto itself stretched until its fingers slipped, and tore.
+//
+// After the step, the fail-safe: Bridson, Fedkiw & Anderson 2002 ("Robust treatment of collisions, contact
+// and friction for cloth animation"), applied to the substep's motion x0 → x1 (its start and end):
 //   1. proximity (their "Proximity detection" and "Repulsions"): vertex–triangle and edge–edge pairs closer
 //      than `gap` at x0 that approach over the step get an inelastic impulse plus a repulsion that opens the
-//      pair by a tenth of its overlap per step, with Coulomb friction ("Friction");
+//      pair by a tenth of its overlap per step, with Coulomb friction ("Friction") — unless
+//      SelfContactParams::repulsions is off, as the engine sets it when the pairs are in the solve;
 //   2. continuous collision detection ("Collision detection"): the pairs become coplanar at the roots of a
 //      cubic in t ∈ [0, 1] along the straight paths x0 + t (x1 − x0); a root where the pair is closer than
 //      `ccd_tolerance` (and than it started) is a collision, stopped by an impulse that leaves the pair
 //      `0.1 gap` apart along its normal. Up to `ccd_passes` passes, each over the pairs of the current paths;
-//   3. rigid impact zones ("Rigid impact zones", after Provot 1997) as the fail-safe: the vertices of the
-//      pairs still colliding are merged into zones that move rigidly (the zone's momentum and angular
-//      momentum), zones grown until no collision is left; a zone that still collides then only translates,
-//      which keeps its own pairs as they were at x0.
+//   3. rigid impact zones ("Rigid impact zones", after Provot 1997): the vertices of the pairs still
+//      colliding are merged into zones that move rigidly (the zone's momentum and angular momentum), zones
+//      grown until no collision is left; a zone that still collides then only translates, which keeps its
+//      own pairs as they were at x0.
 // x0 must be free of intersections (a sheet starts flat); then x1 is too, as far as the zones converge
-// (SelfContactStats::unresolved counts what is left).
-// Why after the step and not in it: the implicit step is linear and solved once; Bridson's pass changes only
-// positions and velocities, so the membrane forces the tearing criteria read (Triangles::corner_force,
-// Vertices::force) carry no contact force, and the fingers' reactions carry none either.
+// (SelfContactStats::unresolved counts what is left). Both change only positions and velocities: the
+// membrane forces the tearing criteria read (Triangles::corner_force, Vertices::force) and the fingers'
+// reactions carry no contact force.
 // Excluded pairs: a vertex and a triangle it is a corner of, edges that share a vertex, and pairs with a
 // corner that is the same pattern point (Vertices::rest) or the same 3D point at x0 as one of the other's:
 // the two lips of a tear are duplicated vertices, coincident at its tip (as in systems/self_intersection.hpp).
 // Held vertices (fingers; the engine adds vertices resting on an obstacle) have infinite mass: their paths
 // are prescribed. An impulse whose free points carry almost none of the pair's weight is not applied (it
 // would fling them); the passes and zones deal with that pair.
-// Known gap (docs/physics.md, "Self-contact"): on a sheet folded onto itself these impulses after the solve
-// stretch the stiff membrane until it tears, so no scenario turns the pass on yet.
-// Broad phase: Embree's rtcCollide over the triangles' boxes swept over the step and grown by the gap; the
-// pairs it reports are sorted, and the impulses applied in that order on one thread, so the result is the
-// same at any thread count.
+// Broad phase: Embree's rtcCollide over the triangles' boxes swept over the step and grown by the margin;
+// the pairs it reports are sorted, and the impulses applied in that order on one thread, so the result is
+// the same at any thread count.
 #pragma once
 
 #include "components/sheet.hpp"
