@@ -85,9 +85,9 @@ struct SelfContactBroadPhaseDeleter {
 };
 using SelfContactBroadPhasePtr = std::unique_ptr<SelfContactBroadPhase, SelfContactBroadPhaseDeleter>;
 
-// The triangle pairs (s < t, ascending) whose boxes over the paths x0 → x1 grown by `margin` overlap
-// (Embree's rtcCollide, then the exact double-precision box test). Pairs that share a vertex are included:
-// the element pairs are excluded one by one.
+// The triangle pairs (s < t, ascending) that share no vertex and whose boxes over the paths x0 → x1 grown
+// by `margin` overlap (Embree's rtcCollide, then the exact double-precision box test). Twins of a tear and
+// coincident corners are excluded later, element pair by element pair.
 void self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec3>& x0, const std::vector<Vec3>& x1,
                              double margin, SelfContactBroadPhasePtr& broad,
                              std::vector<std::array<int32_t, 2>>& pairs);
