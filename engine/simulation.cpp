@@ -195,6 +195,7 @@ struct Simulation::Impl {
     self_contact.gap = scenario.sim.self_contact.gap;
     self_contact.friction = scenario.sim.self_contact.friction;
     self_contact.repulsions = false;  // the implicit step keeps the pairs apart (find_self_pairs)
+    implicit_params.self_gap = self_contact.gap;
     self_contact.dt = implicit_params.dt;
     membrane = membrane_params(m);
     take_propagation_params(m);
@@ -367,7 +368,6 @@ struct Simulation::Impl {
     self_contact_stats += self_contact_proximities(self_contact, sheet.tris.tri, V.rest, V.x, self_contact_predicted,
                                                    self_contact_broad, self_pairs);
     implicit_params.self_pairs = &self_pairs;
-    implicit_params.self_gap = self_contact.gap;
   }
 
   // The substep's motion from self_contact_start to x made free of self-intersections (held vertices keep

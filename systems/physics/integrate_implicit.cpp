@@ -710,6 +710,12 @@ bool update_contacts(const ImplicitParams& params, const Vertices& V, ImplicitSo
   return changed;
 }
 
+// ImplicitSolver::constrained from `resting`, for nv vertices.
+void mark_constrained(int32_t nv, ImplicitSolver& s) {
+  s.constrained.assign(nv, 0);
+  for (const ImplicitSolver::RestingContact& c : s.resting) s.constrained[c.vertex] = 1;
+}
+
 // Free vertices not otherwise constrained whose step would enter an obstacle land on it (above). After the
 // self-contact pairs, which come first: a layer lying on another on a table lands on that layer.
 bool obstacle_arrivals(const ImplicitParams& params, const Vertices& V, ImplicitSolver& s) {
@@ -718,8 +724,7 @@ bool obstacle_arrivals(const ImplicitParams& params, const Vertices& V, Implicit
   const std::vector<Vec3>& vnext = s.velocity_next;
   ScopedTimer timer(s.stats.contact_ms);
   bool changed = false;
-  s.constrained.assign(nv, 0);
-  for (const ImplicitSolver::RestingContact& c : s.resting) s.constrained[c.vertex] = 1;
+  mark_constrained(nv, s);
   for (int32_t v = 0; v < nv; ++v) {
     if (s.free_index[v] < 0 || s.constrained[v]) continue;
     Vec3 n, on;
@@ -765,32 +770,33 @@ bool update_self_contacts(const ImplicitParams& params, const Vertices& V, const
   s.obstacle_of_vertex.assign(v.size(), -1);
   for (size_t c = 0; c < s.resting.size(); ++c)
     if (s.resting[c].pair < 0) s.obstacle_of_vertex[s.resting[c].vertex] = static_cast<int32_t>(c);
+  // The vertex's normal velocity that brings pair q to `goal` over the step, the triangle moving at vt.
+  auto target_of = [&](const ProximityPair& q, double vt, double goal) { return vt + (goal - q.distance) / h; };
   for (ImplicitSolver::RestingContact& c : s.resting) {
     if (c.pair < 0) continue;
     const ProximityPair& q = pairs[c.pair];
-    c.target = triangle_normal_velocity(q, v, s) + (self_pair_goal(q, params.self_gap) - q.distance) / h;
+    c.target = target_of(q, triangle_normal_velocity(q, v, s), self_pair_goal(q, params.self_gap));
   }
-  s.constrained.assign(v.size(), 0);
-  for (const ImplicitSolver::RestingContact& c : s.resting) s.constrained[c.vertex] = 1;
+  mark_constrained(static_cast<int32_t>(v.size()), s);
   bool changed = false;
   for (size_t k = 0; k < pairs.size(); ++k) {
     const ProximityPair& q = pairs[k];
     if (s.free_index[q.vertex] < 0 || s.constrained[q.vertex]) continue;
     const double goal = self_pair_goal(q, params.self_gap);
-    const double vt = triangle_normal_velocity(q, v, s);
-    if (q.distance + h * (q.normal.dot(v[q.vertex]) - vt) >= goal) continue;
+    const double vt = triangle_normal_velocity(q, v, s), vn = q.normal.dot(v[q.vertex]);
+    if (q.distance + h * (vn - vt) >= goal) continue;  // the step keeps it at or beyond its goal
+    const double target = target_of(q, vt, goal);
     // An obstacle wins: a pair that would push its vertex into one (a layer's vertex under another, on a
     // table) is left to the pass after the solve.
-    const Vec3 to = V.x[q.vertex] + h * (v[q.vertex] + (vt + (goal - q.distance) / h - q.normal.dot(v[q.vertex])) * q.normal);
+    const Vec3 to = V.x[q.vertex] + h * (v[q.vertex] + (target - vn) * q.normal);
     Vec3 n_o, on;
     double mu_o = 0;
     if (!params.obstacles.empty() && entered_surface(params.obstacles, params.contact_offset, V.x[q.vertex], to, n_o, on, mu_o))
       continue;
-    ImplicitSolver::RestingContact c{q.vertex, s.free_index[q.vertex], q.normal, 0.0, vt + (goal - q.distance) / h};
+    ImplicitSolver::RestingContact c{q.vertex, s.free_index[q.vertex], q.normal, 0.0, target};
     c.pair = static_cast<int32_t>(k);
     s.resting.push_back(c);
     s.constrained[q.vertex] = 1;
-    s.stats.self_arrivals += 1;
     changed = true;
   }
   return changed;

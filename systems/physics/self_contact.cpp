@@ -626,9 +626,10 @@ SelfContactStats self_contact_proximities(const SelfContactParams& params, const
   out.clear();
   SelfContactStats stats;
   const auto t0 = std::chrono::steady_clock::now();
-  std::vector<Vec3> x = x1, v(x1.size(), Vec3::Zero());
+  // The pass's gather reads the end positions only: no masses, no velocities.
+  std::vector<Vec3> x = x1, no_velocity;
   const std::vector<double> no_mass;
-  Pass pass{params, tris, rest, x0, no_mass, broad, x, v, stats, {}, {}, {}};
+  Pass pass{params, tris, rest, x0, no_mass, broad, x, no_velocity, stats, {}, {}, {}};
   pass.gather(2 * params.gap);
   for (const Element& e : pass.elements) {
     if (e.kind != 0) continue;
