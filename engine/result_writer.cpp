@@ -319,7 +319,8 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::
   if (const SelfContactStats* c = self_contact_stats(sim))
     result["self_contact"] = ojson{{"proximities", c->proximities}, {"repulsions", c->repulsions},
                                    {"collisions", c->collisions},   {"zones", c->zones},
-                                   {"unresolved", c->unresolved},   {"ms", num(c->ms)}};
+                                   {"unresolved", c->unresolved},   {"queries", c->queries},
+                                   {"ms", num(c->ms)}};
   const ImplicitStats solver = solver_stats(sim);
   result["solver"] = ojson{{"analyses", solver.analyses},
                            {"factorizations", solver.factorizations},

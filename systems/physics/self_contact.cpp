@@ -29,10 +29,21 @@ struct SelfContactBroadPhase {
   RTCDevice device = nullptr;
   std::vector<RTCBounds> boxes;  // float, rounded outwards from the double boxes
   std::vector<Box> exact;        // the double boxes, for the exact test after Embree's
+  std::vector<Box> grown;        // the boxes of the last query (below)
   std::mutex mutex;              // rtcCollide calls back from its worker threads
   std::vector<std::array<int32_t, 2>> found;
   const std::vector<Tri>* tris = nullptr;  // of the current call: pairs sharing a corner are not kept
   std::vector<int32_t> first, fill, partner;  // the found pairs bucketed by their first triangle
+  // The pairs of the last Embree query (s < t, ascending): every pair whose boxes around the corners at
+  // `reference`, each grown by its triangle's `reach`, overlap. A later call whose boxes lie within those
+  // (no corner farther than its triangle's reach less the margin from its reference, per axis; the same
+  // triangles) only filters them: one BVH build and query for many substeps instead of two per substep.
+  std::vector<std::array<int32_t, 2>> cached;
+  std::vector<Tri> cached_tris;
+  std::vector<Vec3> reference;
+  std::vector<double> reach;   // m, per triangle
+  std::vector<double> drift;   // scratch, per vertex
+  double widest_margin = 0;    // the widest margin asked for so far: the reach's least
   ~SelfContactBroadPhase() {
     if (device) rtcReleaseDevice(device);
   }
@@ -83,22 +94,15 @@ bool overlap(const Box& a, const Box& b) {
 
 }  // namespace
 
-void self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec3>& x0, const std::vector<Vec3>& x1,
-                             double margin, SelfContactBroadPhasePtr& broad,
-                             std::vector<std::array<int32_t, 2>>& pairs) {
-  pairs.clear();
-  if (tris.size() < 2) return;
-  if (!broad) {
-    broad.reset(new SelfContactBroadPhase);
-    broad->device = rtcNewDevice(nullptr);
-    if (!broad->device) throw std::runtime_error("self-contact: Embree device refused");
-  }
-  SelfContactBroadPhase& b = *broad;
-  std::vector<Box>& boxes = b.exact;  // kept between calls: one allocation per sheet size, not per substep
-  boxes.resize(tris.size());
+namespace {
+
+// Embree's rtcCollide over `boxes` (one per triangle): the pairs (s < t, ascending) that share no corner and
+// whose boxes overlap in double precision.
+void overlapping_pairs(const std::vector<Tri>& tris, const std::vector<Box>& boxes, SelfContactBroadPhase& b,
+                       std::vector<std::array<int32_t, 2>>& out) {
+  out.clear();
   b.boxes.resize(tris.size());
   for (size_t t = 0; t < tris.size(); ++t) {
-    boxes[t] = path_box(tris[t], x0, x1, margin);
     RTCBounds& r = b.boxes[t];
     r.lower_x = down(boxes[t].lo.x());
     r.lower_y = down(boxes[t].lo.y());
@@ -140,8 +144,67 @@ void self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec
     std::sort(begin, end);
     for (auto it = begin; it != end; ++it)
       if ((it == begin || *it != *(it - 1)) && overlap(boxes[t], boxes[*it]))
-        pairs.push_back({static_cast<int32_t>(t), *it});
+        out.push_back({static_cast<int32_t>(t), *it});
   }
+}
+
+// Per point, the largest per-axis distance between it in `a` or `b` and in `reference`.
+void axis_distances(const std::vector<Vec3>& a, const std::vector<Vec3>& b, const std::vector<Vec3>& reference,
+                    std::vector<double>& out) {
+  out.resize(a.size());
+  for (size_t i = 0; i < a.size(); ++i)
+    out[i] = std::max((a[i] - reference[i]).cwiseAbs().maxCoeff(), (b[i] - reference[i]).cwiseAbs().maxCoeff());
+}
+
+double largest_at_corners(const Tri& t, const std::vector<double>& of_vertex) {
+  return std::max({of_vertex[t[0]], of_vertex[t[1]], of_vertex[t[2]]});
+}
+
+}  // namespace
+
+bool self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec3>& x0, const std::vector<Vec3>& x1,
+                             double margin, SelfContactBroadPhasePtr& broad,
+                             std::vector<std::array<int32_t, 2>>& pairs) {
+  pairs.clear();
+  if (tris.size() < 2) return false;
+  if (!broad) {
+    broad.reset(new SelfContactBroadPhase);
+    broad->device = rtcNewDevice(nullptr);
+    if (!broad->device) throw std::runtime_error("self-contact: Embree device refused");
+  }
+  SelfContactBroadPhase& b = *broad;
+  std::vector<Box>& boxes = b.exact;  // kept between calls: one allocation per sheet size, not per substep
+  boxes.resize(tris.size());
+  for (size_t t = 0; t < tris.size(); ++t) boxes[t] = path_box(tris[t], x0, x1, margin);
+  // The cached pairs serve while every triangle's corners stay within its reach (less this call's margin)
+  // of where they were found: its box then lies inside its cached one. A NaN fails the test.
+  bool query = !(b.reference.size() == x0.size() && b.cached_tris == tris);
+  if (!query) {
+    axis_distances(x0, x1, b.reference, b.drift);
+    for (size_t t = 0; t < tris.size() && !query; ++t)
+      query = !(largest_at_corners(tris[t], b.drift) + margin <= b.reach[t]);
+  }
+  b.widest_margin = std::max(b.widest_margin, margin);
+  if (query) {
+    // Around x0, each triangle with room for four more steps like its corners' in this call (and at least
+    // the widest margin asked for): the pairs of a sheet moving steadily are found every few substeps, a
+    // still one's once, and a hand's quick triangles do not widen the others' boxes.
+    axis_distances(x1, x1, x0, b.drift);
+    b.reference = x0;
+    b.cached_tris = tris;
+    b.reach.resize(tris.size());
+    b.grown.resize(tris.size());
+    const double m = b.widest_margin;
+    for (size_t t = 0; t < tris.size(); ++t) {
+      const double step = largest_at_corners(tris[t], b.drift);
+      b.reach[t] = m + step + std::max(m, 8 * step);
+      b.grown[t] = path_box(tris[t], x0, x0, b.reach[t]);
+    }
+    overlapping_pairs(tris, b.grown, b, b.cached);
+  }
+  for (const auto& p : b.cached)
+    if (overlap(boxes[p[0]], boxes[p[1]])) pairs.push_back(p);
+  return query;
 }
 
 // ---- distances ---------------------------------------------------------------------------------------
@@ -399,7 +462,7 @@ struct Pass {
     if (!moved && gathered_margin >= margin) return;
     moved = false;
     gathered_margin = margin;
-    self_contact_candidates(tris, x0, x, margin, broad, pairs);
+    stats.queries += self_contact_candidates(tris, x0, x, margin, broad, pairs);
     stats.candidates += static_cast<int64_t>(pairs.size());
     elements.clear();
     for (const auto& pr : pairs) {

@@ -59,6 +59,8 @@ struct SelfContactParams {
 
 struct SelfContactStats {
   int64_t candidates = 0;   // triangle pairs the broad phase reported (all passes)
+  int64_t queries = 0;      // of the broad phase's calls, those that ran Embree's query (the others
+                            // filtered its cached pairs: self_contact_candidates)
   int64_t proximities = 0;  // vertex–triangle and edge–edge pairs within the gap at x0 (with the pairs kept
                             // apart in the solve, those pairs: ProximityPair)
   int64_t repulsions = 0;   // of those, pairs an impulse was applied to
@@ -68,6 +70,7 @@ struct SelfContactStats {
   double ms = 0;            // wall time
   SelfContactStats& operator+=(const SelfContactStats& o) {
     candidates += o.candidates;
+    queries += o.queries;
     proximities += o.proximities;
     repulsions += o.repulsions;
     collisions += o.collisions;
@@ -88,7 +91,11 @@ using SelfContactBroadPhasePtr = std::unique_ptr<SelfContactBroadPhase, SelfCont
 // The triangle pairs (s < t, ascending) that share no vertex and whose boxes over the paths x0 → x1 grown
 // by `margin` overlap (Embree's rtcCollide, then the exact double-precision box test). Twins of a tear and
 // coincident corners are excluded later, element pair by element pair.
-void self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec3>& x0, const std::vector<Vec3>& x1,
+// Embree's query runs on boxes grown by a reach that leaves room for the coming substeps' motion, and its
+// pairs are kept in `broad`: later calls with the same triangles whose corners stay within the reach of
+// where it ran filter those pairs by the exact test only. The pairs are the same either way. Returns
+// whether this call ran Embree's query.
+bool self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec3>& x0, const std::vector<Vec3>& x1,
                              double margin, SelfContactBroadPhasePtr& broad,
                              std::vector<std::array<int32_t, 2>>& pairs);
 

@@ -209,6 +209,75 @@ TEST(SelfContact, SameBitsAtOneAndTwoThreads) {
   EXPECT_EQ(std::memcmp(a.v.data(), b.v.data(), a.v.size() * sizeof(Vec3)), 0);
 }
 
+// The broad phase's pairs against all pairs tested by brute force, call after call, while the two sheets
+// move (the lower one still, the upper one falling and speeding up, one corner of it jerked now and then)
+// and their triangles change (a corner replaced by a new vertex, as a cut does, or by another one): the same pairs whether they came from a
+// new Embree query or from the cached one, and the cache serves most calls.
+TEST(SelfContactCandidates, SameAsBruteForceWhetherQueriedOrCached) {
+  TwoSheets s = two_sheets(10, 0.003, 0.02, 11);
+  auto brute_force = [&](const std::vector<Vec3>& x0, const std::vector<Vec3>& x1, double margin) {
+    std::vector<std::array<int32_t, 2>> pairs;
+    auto box = [&](const Tri& t, Vec3& lo, Vec3& hi) {
+      lo = hi = x0[t[0]];
+      for (int32_t v : t) {
+        lo = lo.cwiseMin(x0[v]).cwiseMin(x1[v]);
+        hi = hi.cwiseMax(x0[v]).cwiseMax(x1[v]);
+      }
+      lo.array() -= margin;
+      hi.array() += margin;
+    };
+    for (int32_t a = 0; a < static_cast<int32_t>(s.tris.size()); ++a)
+      for (int32_t b = a + 1; b < static_cast<int32_t>(s.tris.size()); ++b) {
+        bool shared = false;
+        for (int32_t u : s.tris[a])
+          for (int32_t w : s.tris[b]) shared = shared || u == w;
+        Vec3 lo_a, hi_a, lo_b, hi_b;
+        box(s.tris[a], lo_a, hi_a);
+        box(s.tris[b], lo_b, hi_b);
+        if (!shared && (lo_a.array() <= hi_b.array()).all() && (lo_b.array() <= hi_a.array()).all())
+          pairs.push_back({a, b});
+      }
+    return pairs;
+  };
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1, 1);
+  SelfContactBroadPhasePtr broad;
+  std::vector<std::array<int32_t, 2>> pairs;
+  int calls = 0, queries = 0;
+  // Still sheets, a narrow margin and then a wide one: the second call's boxes are wider than the cached
+  // ones.
+  for (const double margin : {3e-6, 6e-4}) {
+    queries += self_contact_candidates(s.tris, s.x, s.x, margin, broad, pairs);
+    calls += 1;
+    ASSERT_EQ(pairs, brute_force(s.x, s.x, margin)) << "still, margin " << margin;
+  }
+  const double h = 1.0 / 300;
+  for (int step = 0; step < 60; ++step) {
+    for (int32_t i = s.upper_first; i < static_cast<int32_t>(s.x.size()); ++i)
+      s.v[i] = Vec3(0.02 * u(rng), 0.02 * u(rng), -0.05 * (1 + step / 10.0));
+    if (step % 7 == 3) s.v[s.upper_first + step] = Vec3(u(rng), u(rng), u(rng));  // a jerk: 3 mm in one step
+    if (step == 30) {  // a cut: triangle 5's first corner becomes a new vertex at the same place
+      s.x.push_back(s.x[s.tris[5][0]]);
+      s.v.push_back(Vec3::Zero());
+      s.rest.push_back(s.rest[s.tris[5][0]]);
+      s.inverse_mass.push_back(s.inverse_mass[s.tris[5][0]]);
+      s.tris[5][0] = static_cast<int32_t>(s.x.size()) - 1;
+    }
+    if (step == 48) s.tris[6][0] = 100;  // a corner moved to another vertex, one that stays still
+    std::vector<Vec3> x1 = s.x;
+    for (size_t i = 0; i < s.x.size(); ++i) x1[i] += h * s.v[i];
+    // The substep's calls: the solve's pairs over the predicted paths, then the collision pass's.
+    for (const double margin : {6e-4, 3e-6}) {
+      queries += self_contact_candidates(s.tris, s.x, x1, margin, broad, pairs);
+      calls += 1;
+      ASSERT_EQ(pairs, brute_force(s.x, x1, margin)) << "step " << step << " margin " << margin;
+    }
+    s.x = x1;
+  }
+  EXPECT_LT(queries, calls / 3) << "the cached pairs served most calls";
+  EXPECT_GT(queries, 2) << "motion and the cut made it query again";
+}
+
 TEST(SelfContact, HeldVerticesKeepTheirPaths) {
   TwoSheets s = two_sheets(8, 0.001, 0, 2);
   for (int32_t i = s.upper_first; i < static_cast<int32_t>(s.x.size()); ++i) s.v[i] = Vec3(0, 0, -1);
