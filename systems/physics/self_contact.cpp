@@ -3,6 +3,7 @@
 #include "systems/common/scoped_timer.hpp"
 
 #include <embree3/rtcore.h>
+#include <tbb/enumerable_thread_specific.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -10,7 +11,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <mutex>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -30,8 +30,14 @@ struct SelfContactBroadPhase {
   std::vector<RTCBounds> boxes;  // float, rounded outwards from the double boxes
   std::vector<Box> exact;        // the double boxes, for the exact test after Embree's
   std::vector<Box> grown;        // the boxes of the last query (below)
-  std::mutex mutex;              // rtcCollide calls back from its worker threads
+  // rtcCollide calls back from its worker threads (oneTBB's): each thread's pairs in its own list, no lock.
+  tbb::enumerable_thread_specific<std::vector<std::array<int32_t, 2>>> found_by_thread;
   std::vector<std::array<int32_t, 2>> found;
+  // Embree's scene, kept while the triangle count stays: a query then refits its BVH to the new boxes
+  // (a rebuild per query was a third of a query's time).
+  RTCScene scene = nullptr;
+  RTCGeometry geometry = nullptr;
+  size_t scene_triangles = 0;
   const std::vector<Tri>* tris = nullptr;  // of the current call: pairs sharing a corner are not kept
   std::vector<int32_t> first, fill, partner;  // the found pairs bucketed by their first triangle
   // The pairs of the last Embree query (s < t, ascending): every pair whose boxes around the corners at
@@ -45,6 +51,7 @@ struct SelfContactBroadPhase {
   std::vector<double> drift;   // scratch, per vertex
   double widest_margin = 0;    // the widest margin asked for so far: the reach's least
   ~SelfContactBroadPhase() {
+    if (scene) rtcReleaseScene(scene);
     if (device) rtcReleaseDevice(device);
   }
 };
@@ -60,7 +67,7 @@ void box_bounds(const RTCBoundsFunctionArguments* args) {
 
 void collect_pairs(void* user, RTCCollision* collisions, unsigned int count) {
   auto* b = static_cast<SelfContactBroadPhase*>(user);
-  std::lock_guard<std::mutex> lock(b->mutex);
+  std::vector<std::array<int32_t, 2>>& found = b->found_by_thread.local();
   for (unsigned int i = 0; i < count; ++i) {
     const auto s = static_cast<int32_t>(collisions[i].primID0), t = static_cast<int32_t>(collisions[i].primID1);
     if (s == t) continue;
@@ -70,7 +77,7 @@ void collect_pairs(void* user, RTCCollision* collisions, unsigned int count) {
     const Tri& c = (*b->tris)[t];
     bool shared = false;
     for (const int32_t u : a) shared = shared || u == c[0] || u == c[1] || u == c[2];
-    if (!shared) b->found.push_back({std::min(s, t), std::max(s, t)});
+    if (!shared) found.push_back({std::min(s, t), std::max(s, t)});
   }
 }
 
@@ -92,10 +99,6 @@ bool overlap(const Box& a, const Box& b) {
   return (a.lo.array() <= b.hi.array()).all() && (b.lo.array() <= a.hi.array()).all();
 }
 
-}  // namespace
-
-namespace {
-
 // Embree's rtcCollide over `boxes` (one per triangle): the pairs (s < t, ascending) that share no corner and
 // whose boxes overlap in double precision.
 void overlapping_pairs(const std::vector<Tri>& tris, const std::vector<Box>& boxes, SelfContactBroadPhase& b,
@@ -112,22 +115,32 @@ void overlapping_pairs(const std::vector<Tri>& tris, const std::vector<Box>& box
     r.upper_z = up(boxes[t].hi.z());
     r.align0 = r.align1 = 0;
   }
-  b.found.clear();
+  for (auto& f : b.found_by_thread) f.clear();
   b.tris = &tris;
-  RTCScene scene = rtcNewScene(b.device);
-  rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_LOW);
-  RTCGeometry geometry = rtcNewGeometry(b.device, RTC_GEOMETRY_TYPE_USER);
-  rtcSetGeometryUserPrimitiveCount(geometry, static_cast<unsigned int>(tris.size()));
-  rtcSetGeometryUserData(geometry, &b);
-  rtcSetGeometryBoundsFunction(geometry, box_bounds, nullptr);
-  rtcCommitGeometry(geometry);
-  rtcAttachGeometry(scene, geometry);
-  rtcReleaseGeometry(geometry);
-  rtcCommitScene(scene);
-  rtcCollide(scene, scene, collect_pairs, &b);
-  rtcReleaseScene(scene);
+  if (b.scene && b.scene_triangles != tris.size()) {
+    rtcReleaseScene(b.scene);
+    b.scene = nullptr;
+  }
+  if (!b.scene) {
+    b.scene = rtcNewScene(b.device);
+    rtcSetSceneBuildQuality(b.scene, RTC_BUILD_QUALITY_LOW);
+    rtcSetSceneFlags(b.scene, RTC_SCENE_FLAG_DYNAMIC);
+    b.geometry = rtcNewGeometry(b.device, RTC_GEOMETRY_TYPE_USER);
+    rtcSetGeometryUserPrimitiveCount(b.geometry, static_cast<unsigned int>(tris.size()));
+    rtcSetGeometryUserData(b.geometry, &b);
+    rtcSetGeometryBoundsFunction(b.geometry, box_bounds, nullptr);
+    rtcSetGeometryBuildQuality(b.geometry, RTC_BUILD_QUALITY_REFIT);
+    rtcAttachGeometry(b.scene, b.geometry);
+    rtcReleaseGeometry(b.geometry);  // the scene holds it
+    b.scene_triangles = tris.size();
+  }
+  rtcCommitGeometry(b.geometry);
+  rtcCommitScene(b.scene);
+  rtcCollide(b.scene, b.scene, collect_pairs, &b);
   if (const RTCError e = rtcGetDeviceError(b.device); e != RTC_ERROR_NONE)
     throw std::runtime_error("self-contact: Embree error " + std::to_string(static_cast<int>(e)));
+  b.found.clear();
+  for (const auto& f : b.found_by_thread) b.found.insert(b.found.end(), f.begin(), f.end());
   // Embree reports pairs in the order its threads meet them: sorted, the pairs are the same at any thread
   // count, and the exact double test drops what the float boxes' rounding added. A counting sort by the
   // first triangle, then each triangle's few partners sorted: a comparison sort of all of them took a tenth
@@ -186,9 +199,11 @@ bool self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec
   }
   b.widest_margin = std::max(b.widest_margin, margin);
   if (query) {
-    // Around x0, each triangle with room for four more steps like its corners' in this call (and at least
-    // the widest margin asked for): the pairs of a sheet moving steadily are found every few substeps, a
-    // still one's once, and a hand's quick triangles do not widen the others' boxes.
+    // Around x0, each triangle with room for four more steps like its corners' in this call, but no more
+    // than a quarter of its size, and at least the widest margin asked for: the pairs of a sheet moving
+    // steadily are found every few substeps and a still one's once; a hand's quick triangles do not widen
+    // the others' boxes, and a fast sheet's boxes do not swallow their neighbours' (eight steps' room took
+    // a crumpling sheet of 2 000 triangles to two million pairs a query).
     axis_distances(x1, x1, x0, b.drift);
     b.reference = x0;
     b.cached_tris = tris;
@@ -197,7 +212,9 @@ bool self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec
     const double m = b.widest_margin;
     for (size_t t = 0; t < tris.size(); ++t) {
       const double step = largest_at_corners(tris[t], b.drift);
-      b.reach[t] = m + step + std::max(m, 8 * step);
+      const Box own = path_box(tris[t], x0, x0, 0);
+      const double size = (own.hi - own.lo).maxCoeff();
+      b.reach[t] = m + step + std::max(m, std::min(4 * step, size / 4));
       b.grown[t] = path_box(tris[t], x0, x0, b.reach[t]);
     }
     overlapping_pairs(tris, b.grown, b, b.cached);
