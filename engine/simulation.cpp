@@ -197,6 +197,7 @@ struct Simulation::Impl {
     self_contact.repulsions = false;  // the implicit step keeps the pairs apart (find_self_pairs)
     implicit_params.self_gap = self_contact.gap;
     self_contact.dt = implicit_params.dt;
+    self_contact.run = implicit_params.run;
     membrane = membrane_params(m);
     take_propagation_params(m);
     tear_direction_from_name(scenario.tearing.direction, tearing_params.direction);  // validated

@@ -50,6 +50,7 @@ struct SelfContactBroadPhase {
   std::vector<double> reach;   // m, per triangle
   std::vector<double> drift;   // scratch, per vertex
   double widest_margin = 0;    // the widest margin asked for so far: the reach's least
+  std::vector<std::vector<std::array<int32_t, 2>>> kept_by_range;  // the filter's outputs (in_ranges)
   ~SelfContactBroadPhase() {
     if (scene) rtcReleaseScene(scene);
     if (device) rtcReleaseDevice(device);
@@ -65,6 +66,12 @@ void box_bounds(const RTCBoundsFunctionArguments* args) {
   *args->bounds_o = b->boxes[args->primID];
 }
 
+bool share_a_corner(const Tri& a, const Tri& c) {
+  bool shared = false;
+  for (const int32_t u : a) shared = shared || u == c[0] || u == c[1] || u == c[2];
+  return shared;
+}
+
 void collect_pairs(void* user, RTCCollision* collisions, unsigned int count) {
   auto* b = static_cast<SelfContactBroadPhase*>(user);
   std::vector<std::array<int32_t, 2>>& found = b->found_by_thread.local();
@@ -73,11 +80,7 @@ void collect_pairs(void* user, RTCCollision* collisions, unsigned int count) {
     if (s == t) continue;
     // Triangles that share a corner are neighbours, never a contact: most of a sheet's overlapping boxes
     // (each triangle's with its dozen neighbours'), whose sort took a sixth of a folded sheet's frame.
-    const Tri& a = (*b->tris)[s];
-    const Tri& c = (*b->tris)[t];
-    bool shared = false;
-    for (const int32_t u : a) shared = shared || u == c[0] || u == c[1] || u == c[2];
-    if (!shared) found.push_back({std::min(s, t), std::max(s, t)});
+    if (!share_a_corner((*b->tris)[s], (*b->tris)[t])) found.push_back({std::min(s, t), std::max(s, t)});
   }
 }
 
@@ -99,11 +102,47 @@ bool overlap(const Box& a, const Box& b) {
   return (a.lo.array() <= b.hi.array()).all() && (b.lo.array() <= a.hi.array()).all();
 }
 
-// Embree's rtcCollide over `boxes` (one per triangle): the pairs (s < t, ascending) that share no corner and
-// whose boxes overlap in double precision.
+// Items per range of the loops below.
+constexpr int32_t kRange = 256;
+
+// Calls item(i, out) for every i in [0, count), ranges of kRange items run by `run`, each appending to
+// its own outputs[range]: joined in range order, the outputs are the same at any thread count.
+template <typename T, typename Item>
+void in_ranges(int32_t count, const RangeRunner& run, std::vector<std::vector<T>>& outputs, const Item& item) {
+  const int32_t ranges = (count + kRange - 1) / kRange;
+  outputs.resize(std::max<size_t>(outputs.size(), ranges));
+  run(ranges, 1, [&](int32_t begin, int32_t end) {
+    for (int32_t r = begin; r < end; ++r) {
+      std::vector<T>& out = outputs[r];
+      out.clear();
+      for (int32_t i = r * kRange; i < std::min(count, (r + 1) * kRange); ++i) item(i, out);
+    }
+  });
+  for (int32_t r = ranges; r < static_cast<int32_t>(outputs.size()); ++r) outputs[r].clear();
+}
+
+template <typename T>
+void join(const std::vector<std::vector<T>>& outputs, std::vector<T>& out) {
+  out.clear();
+  for (const std::vector<T>& o : outputs) out.insert(out.end(), o.begin(), o.end());
+}
+
+// Up to this many triangles the broad phase tests all pairs of boxes: Embree's query costs about 0.1 ms
+// however small the scene (its build and its threads' start), all pairs of 100 triangles a few µs.
+constexpr size_t kAllPairsUpTo = 256;
+
+// The pairs (s < t, ascending) that share no corner and whose `boxes` (one per triangle) overlap in double
+// precision: Embree's rtcCollide, or all pairs for a few triangles.
 void overlapping_pairs(const std::vector<Tri>& tris, const std::vector<Box>& boxes, SelfContactBroadPhase& b,
                        std::vector<std::array<int32_t, 2>>& out) {
   out.clear();
+  if (tris.size() <= kAllPairsUpTo) {
+    for (size_t s = 0; s < tris.size(); ++s)
+      for (size_t t = s + 1; t < tris.size(); ++t)
+        if (overlap(boxes[s], boxes[t]) && !share_a_corner(tris[s], tris[t]))
+          out.push_back({static_cast<int32_t>(s), static_cast<int32_t>(t)});
+    return;
+  }
   b.boxes.resize(tris.size());
   for (size_t t = 0; t < tris.size(); ++t) {
     RTCBounds& r = b.boxes[t];
@@ -176,7 +215,7 @@ double largest_at_corners(const Tri& t, const std::vector<double>& of_vertex) {
 }  // namespace
 
 bool self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec3>& x0, const std::vector<Vec3>& x1,
-                             double margin, SelfContactBroadPhasePtr& broad,
+                             double margin, const RangeRunner& run, SelfContactBroadPhasePtr& broad,
                              std::vector<std::array<int32_t, 2>>& pairs) {
   pairs.clear();
   if (tris.size() < 2) return false;
@@ -188,7 +227,9 @@ bool self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec
   SelfContactBroadPhase& b = *broad;
   std::vector<Box>& boxes = b.exact;  // kept between calls: one allocation per sheet size, not per substep
   boxes.resize(tris.size());
-  for (size_t t = 0; t < tris.size(); ++t) boxes[t] = path_box(tris[t], x0, x1, margin);
+  run(static_cast<int32_t>(tris.size()), kRange, [&](int32_t begin, int32_t end) {
+    for (int32_t t = begin; t < end; ++t) boxes[t] = path_box(tris[t], x0, x1, margin);
+  });
   // The cached pairs serve while every triangle's corners stay within its reach (less this call's margin)
   // of where they were found: its box then lies inside its cached one. A NaN fails the test.
   bool query = !(b.reference.size() == x0.size() && b.cached_tris == tris);
@@ -219,8 +260,11 @@ bool self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec
     }
     overlapping_pairs(tris, b.grown, b, b.cached);
   }
-  for (const auto& p : b.cached)
-    if (overlap(boxes[p[0]], boxes[p[1]])) pairs.push_back(p);
+  in_ranges(static_cast<int32_t>(b.cached.size()), run, b.kept_by_range, [&](int32_t i, auto& kept) {
+    const auto& p = b.cached[i];
+    if (overlap(boxes[p[0]], boxes[p[1]])) kept.push_back(p);
+  });
+  join(b.kept_by_range, pairs);
   return query;
 }
 
@@ -458,6 +502,7 @@ struct Pass {
   SelfContactStats& stats;
   std::vector<std::array<int32_t, 2>> pairs;
   std::vector<Element> elements;
+  std::vector<std::vector<Element>> elements_by_range;
   std::vector<double> times;
 
   // Triangles that share a corner, or a corner that is the same pattern point (a tear's twin vertices) or
@@ -479,16 +524,15 @@ struct Pass {
     if (!moved && gathered_margin >= margin) return;
     moved = false;
     gathered_margin = margin;
-    stats.queries += self_contact_candidates(tris, x0, x, margin, broad, pairs);
+    stats.queries += self_contact_candidates(tris, x0, x, margin, params.run, broad, pairs);
     stats.candidates += static_cast<int64_t>(pairs.size());
-    elements.clear();
-    for (const auto& pr : pairs) {
-      const Tri& s = tris[pr[0]];
-      const Tri& t = tris[pr[1]];
-      if (adjacent(s, t)) continue;
+    in_ranges(static_cast<int32_t>(pairs.size()), params.run, elements_by_range, [&](int32_t i, auto& out) {
+      const Tri& s = tris[pairs[i][0]];
+      const Tri& t = tris[pairs[i][1]];
+      if (adjacent(s, t)) return;
       // Only the pairs whose own boxes overlap: most of two triangles' 15 do not, and the sort is the cost.
       auto add = [&](const Element& e) {
-        if (sides_overlap(e, start(e), end(e), margin)) elements.push_back(e);
+        if (sides_overlap(e, start(e), end(e), margin)) out.push_back(e);
       };
       for (int i = 0; i < 3; ++i) {
         add(Element{0, {s[i], t[0], t[1], t[2]}});
@@ -501,7 +545,8 @@ struct Pass {
           add(Element{1, {e[0], e[1], f[0], f[1]}});
         }
       }
-    }
+    });
+    join(elements_by_range, elements);
     std::sort(elements.begin(), elements.end());
     elements.erase(std::unique(elements.begin(), elements.end()), elements.end());
   }
@@ -709,7 +754,7 @@ SelfContactStats self_contact_proximities(const SelfContactParams& params, const
   // The pass's gather reads the end positions only: no masses, no velocities.
   std::vector<Vec3> x = x1, no_velocity;
   const std::vector<double> no_mass;
-  Pass pass{params, tris, rest, x0, no_mass, broad, x, no_velocity, stats, {}, {}, {}};
+  Pass pass{params, tris, rest, x0, no_mass, broad, x, no_velocity, stats, {}, {}, {}, {}};
   pass.gather(2 * params.gap);
   for (const Element& e : pass.elements) {
     if (e.kind != 0) continue;
@@ -747,7 +792,7 @@ SelfContactStats resolve_self_contact(const SelfContactParams& params, const std
                                       std::vector<Vec3>& x, std::vector<Vec3>& v) {
   SelfContactStats stats;
   const auto t0 = std::chrono::steady_clock::now();
-  Pass pass{params, tris, rest, x0, inverse_mass, broad, x, v, stats, {}, {}, {}};
+  Pass pass{params, tris, rest, x0, inverse_mass, broad, x, v, stats, {}, {}, {}, {}};
   [&] {
     if (params.repulsions) pass.repulsions();
     for (int32_t k = 0; k < params.ccd_passes; ++k) {

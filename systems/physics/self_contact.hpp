@@ -36,6 +36,7 @@
 #pragma once
 
 #include "components/sheet.hpp"
+#include "systems/common/parallel.hpp"
 
 #include <array>
 #include <memory>
@@ -55,6 +56,9 @@ struct SelfContactParams {
   // edge repulsions alone an A5 sheet folded on a table still tore 62 times), and the collision passes and
   // impact zones remain the fail-safe.
   bool repulsions = true;
+  // The broad phase's filter and the gathering of the vertex–triangle and edge–edge pairs run in ranges
+  // of triangle pairs (systems/common/parallel.hpp), each with its own output, joined in range order.
+  RangeRunner run = run_serial;
 };
 
 struct SelfContactStats {
@@ -96,7 +100,7 @@ using SelfContactBroadPhasePtr = std::unique_ptr<SelfContactBroadPhase, SelfCont
 // where it ran filter those pairs by the exact test only. The pairs are the same either way. Returns
 // whether this call ran Embree's query.
 bool self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec3>& x0, const std::vector<Vec3>& x1,
-                             double margin, SelfContactBroadPhasePtr& broad,
+                             double margin, const RangeRunner& run, SelfContactBroadPhasePtr& broad,
                              std::vector<std::array<int32_t, 2>>& pairs);
 
 // The first time t ∈ [0, 1] at which point p meets triangle (a, b, c), all moving linearly from their `0`
