@@ -30,9 +30,10 @@
 // Held vertices (fingers; the engine adds vertices resting on an obstacle) have infinite mass: their paths
 // are prescribed. An impulse whose free points carry almost none of the pair's weight is not applied (it
 // would fling them); the passes and zones deal with that pair.
-// Broad phase: Embree's rtcCollide over the triangles' boxes swept over the step and grown by the margin;
-// the pairs it reports are sorted, and the impulses applied in that order on one thread, so the result is
-// the same at any thread count.
+// Broad phase (self_contact_candidates): the triangles whose boxes swept over the step and grown by the
+// margin overlap, from Embree's rtcCollide (all pairs up to 256 triangles) on boxes grown further, kept
+// for the substeps that stay within them. The pairs are sorted, and the impulses applied in that order on
+// one thread, so the result is the same at any thread count.
 #pragma once
 
 #include "components/sheet.hpp"
@@ -63,8 +64,8 @@ struct SelfContactParams {
 
 struct SelfContactStats {
   int64_t candidates = 0;   // triangle pairs the broad phase reported (all passes)
-  int64_t queries = 0;      // of the broad phase's calls, those that ran Embree's query (the others
-                            // filtered its cached pairs: self_contact_candidates)
+  int64_t queries = 0;      // of the broad phase's calls, those that queried (Embree, or all pairs up to
+                            // 256 triangles); the others filtered the kept pairs: self_contact_candidates
   int64_t proximities = 0;  // vertex–triangle and edge–edge pairs within the gap at x0 (with the pairs kept
                             // apart in the solve, those pairs: ProximityPair)
   int64_t repulsions = 0;   // of those, pairs an impulse was applied to
@@ -97,8 +98,8 @@ using SelfContactBroadPhasePtr = std::unique_ptr<SelfContactBroadPhase, SelfCont
 // coincident corners are excluded later, element pair by element pair.
 // Embree's query runs on boxes grown by a reach that leaves room for the coming substeps' motion, and its
 // pairs are kept in `broad`: later calls with the same triangles whose corners stay within the reach of
-// where it ran filter those pairs by the exact test only. The pairs are the same either way. Returns
-// whether this call ran Embree's query.
+// where it ran filter those pairs by the exact test only. The pairs are the same either way. Up to 256
+// triangles all pairs of boxes are tested instead of Embree's query. Returns whether this call queried.
 bool self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec3>& x0, const std::vector<Vec3>& x1,
                              double margin, const RangeRunner& run, SelfContactBroadPhasePtr& broad,
                              std::vector<std::array<int32_t, 2>>& pairs);
