@@ -3,6 +3,7 @@
 // counters (ms per frame) next to the wall time of the frame.
 #include "bench_scenes.hpp"
 
+#include "engine/scenario.hpp"
 #include "engine/simulation.hpp"
 #include "engine/simulation_internals.hpp"
 #include "systems/physics/bending_forces.hpp"
@@ -133,6 +134,49 @@ BENCHMARK(BM_FrameOnTable)
     ->ArgNames({"triangles", "threads"})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(60)
+    ->UseRealTime();
+
+// Issue 25's self-contact budget, on the scenes where the sheet meets itself: fold-half (an A5 sheet folded
+// in half on a table) and fig18-crumple (four fingers crumpling it), with sim.self_contact on, at ~500 and
+// ~1 000 triangles, 2 threads, each scenario's whole run (90 and 150 frames). contact_ms is self-contact's
+// own work per frame (the pairs' search before each substep and the pass after it), contact_share its part
+// of the frame (the budget: 0.3 at ~1 000 triangles); queries the broad phase's per frame.
+void BM_FrameSelfContact(benchmark::State& state, const char* name) {
+  Scenario s = load_scenario(std::string(PT_SOURCE_DIR) + "/scenarios/" + name + ".json");
+  s.sim.self_contact.on = true;
+  s.triangles = static_cast<int32_t>(state.range(0));
+  EngineOptions options;
+  options.threads = 2;
+  Simulation sim(s, options);
+  double frame_ms = 0;
+  int64_t frames = 0;
+  for (auto _ : state) {
+    sim.step();
+    frame_ms += sim.last_profile().frame;
+    ++frames;
+  }
+  const SelfContactStats& c = *self_contact_stats(sim);
+  const double n = static_cast<double>(frames);
+  state.counters["triangles"] = sim.sheet().tris.size();
+  state.counters["frame_ms"] = frame_ms / n;
+  state.counters["contact_ms"] = c.ms / n;
+  state.counters["contact_share"] = c.ms / frame_ms;
+  state.counters["queries"] = static_cast<double>(c.queries) / n;
+  state.counters["proximities"] = static_cast<double>(c.proximities) / n;
+}
+BENCHMARK_CAPTURE(BM_FrameSelfContact, fold_half, "fold-half")
+    ->Arg(500)
+    ->Arg(1000)
+    ->ArgName("triangles")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(90)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_FrameSelfContact, fig18_crumple, "fig18-crumple")
+    ->Arg(500)
+    ->Arg(1000)
+    ->ArgName("triangles")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(150)
     ->UseRealTime();
 
 // Issue 6's large-sheet goal: the ~10 000-triangle A4 scene, 2 threads, with fewer substeps per frame (the

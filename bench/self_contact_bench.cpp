@@ -1,7 +1,9 @@
 // The self-contact pass (systems/physics/self_contact.hpp) of one substep at 1 000 and 10 000 triangles: an
 // A4 sheet folded in half with its top half's layer 1 mm above the bottom one and falling onto it at
 // 0.3 m/s (1 mm per 300 Hz substep: repulsions, collisions and their passes), and the same sheet lying flat
-// and still (nothing touches: the broad phase and the pairs' boxes only). A frame is 10 substeps.
+// and still (nothing touches: the broad phase and the pairs' boxes only). A frame is 10 substeps. The
+// broad phase keeps its pairs between iterations (the same substep again), so after the first this times
+// a substep its kept pairs serve; BM_FrameSelfContact (frame_bench.cpp) has whole runs, queries included.
 #include "bench_scenes.hpp"
 
 #include "engine/sheet_builder.hpp"

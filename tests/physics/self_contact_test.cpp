@@ -6,6 +6,8 @@
 #include "tests/test_meshes.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -196,11 +198,19 @@ TEST(SelfContact, SameBitsAtOneAndTwoThreads) {
     TwoSheets s = two_sheets(16, 0.002, 0.03, 5);
     for (int32_t i = s.upper_first; i < static_cast<int32_t>(s.x.size()); ++i) s.v[i] = Vec3(0.1, 0, -3.0);
     tbb::task_arena arena(threads);
+    int64_t candidates = 0;
     arena.execute([&] {
       SelfContactParams params;
+      // The engine's runner: its ranges on the arena's threads (1 024 triangles, many ranges of pairs).
+      params.run = [](int32_t count, int32_t grain, const RangeTask& task) {
+        tbb::parallel_for(
+            tbb::blocked_range<int32_t>(0, count, std::max(1, grain)),
+            [&](const tbb::blocked_range<int32_t>& r) { task(r.begin(), r.end()); }, tbb::simple_partitioner());
+      };
       SelfContactBroadPhasePtr broad;
-      for (int step = 0; step < 10; ++step) fly(params, s, broad);
+      for (int step = 0; step < 10; ++step) candidates += fly(params, s, broad).candidates;
     });
+    EXPECT_GT(candidates, 10 * 256) << "the pairs span several ranges";
     return s;
   };
   const TwoSheets a = run(1), b = run(2);
