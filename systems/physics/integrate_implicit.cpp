@@ -317,6 +317,8 @@ void build_structure(const Sheet& sheet, const ImplicitParams& params, std::vect
 constexpr int kBrakeLevels = 4;
 constexpr double kBrakeKappa[kBrakeLevels] = {0, 1, 4, 16};
 constexpr int32_t kBrakeSubsteps = 10;
+// The most rounds that only add self-contact pairs after the update rounds (implicit_substep).
+constexpr int kSelfPairRounds = 12;
 
 // The step solved a linear model: membrane energy W(x) − h f·v⁺ + ½ h² v⁺ᵀ K v⁺ (exact for bending and
 // gravity, which are quadratic and linear). Backward Euler on that model dissipates
@@ -875,6 +877,12 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
     if (!changed) break;
     if (!solve_with_energy_check(params, mp, kscale, brake, sheet, s)) return false;
   }
+  // A fast layer's last solve may bring pairs near that the rounds above did not hold: they are added,
+  // round after round, until none is. Only adding, these rounds end (at most kSelfPairRounds); rounds that
+  // also release and re-arrive ran on without end on a sheet resting on a table, with two to three times its solves. With
+  // them u-twist-pull with self-contact makes its one tear, not two, and stretches 3.1% instead of 7.2%.
+  for (int round = 0; self_pairs && round < kSelfPairRounds && update_self_contacts(params, V, vnext, s); ++round)
+    if (!solve_with_energy_check(params, mp, kscale, brake, sheet, s)) return false;
   // The rounds end with friction taken from the motion of the solve before the last: where that friction
   // now pushes, the vertex sticks and the step is solved once more.
   if (!params.obstacles.empty() && friction_pushes(s))
