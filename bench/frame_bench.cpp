@@ -46,6 +46,29 @@ void add_solver_ms_counters(const ImplicitStats& solver, double frames, benchmar
   state.counters["solve_ms"] = solver.solve_ms / frames;
 }
 
+// Steps `sim` once per benchmark iteration: the frames run and the engine's own frame time summed over them.
+struct SteppedFrames {
+  double n = 0;
+  double frame_ms = 0;
+};
+SteppedFrames step_frames(Simulation& sim, benchmark::State& state) {
+  SteppedFrames f;
+  for (auto _ : state) {
+    sim.step();
+    f.frame_ms += sim.last_profile().frame;
+    f.n += 1;
+  }
+  return f;
+}
+
+// The contact benchmarks' common counters: size, frame and contact ms per frame, contact's share.
+void add_contact_counters(const Simulation& sim, const SteppedFrames& f, double contact_ms, benchmark::State& state) {
+  state.counters["triangles"] = sim.sheet().tris.size();
+  state.counters["frame_ms"] = f.frame_ms / f.n;
+  state.counters["contact_ms"] = contact_ms / f.n;
+  state.counters["contact_share"] = contact_ms / f.frame_ms;
+}
+
 // Whole frame: all systems, tearing included. Frames beyond the scenario's motion keep the fingers
 // still, so a long benchmark run measures a steady (torn) state.
 void BM_Frame(benchmark::State& state) {
@@ -109,19 +132,10 @@ void BM_FrameOnTable(benchmark::State& state) {
   EngineOptions options;
   options.threads = static_cast<int32_t>(state.range(1));
   Simulation sim(s, options);
-  double frame_ms = 0;
-  int64_t frames = 0;
-  for (auto _ : state) {
-    sim.step();
-    frame_ms += sim.last_profile().frame;
-    ++frames;
-  }
-  const double n = static_cast<double>(frames);
+  const SteppedFrames frames = step_frames(sim, state);
+  const double n = frames.n;
   const ImplicitStats solver = solver_stats(sim);
-  state.counters["triangles"] = sim.sheet().tris.size();
-  state.counters["frame_ms"] = frame_ms / n;
-  state.counters["contact_ms"] = solver.contact_ms / n;
-  state.counters["contact_share"] = solver.contact_ms / frame_ms;
+  add_contact_counters(sim, frames, solver.contact_ms, state);
   // Per frame: vertex-substeps resting on the table (filtered in the solve), put back after it, and the
   // factorisations (10 substeps; the stickers and the landings add solves, outside contact_ms).
   state.counters["resting"] = static_cast<double>(solver.resting_contacts) / n;
@@ -148,19 +162,10 @@ void BM_FrameSelfContact(benchmark::State& state, const char* name) {
   EngineOptions options;
   options.threads = 2;
   Simulation sim(s, options);
-  double frame_ms = 0;
-  int64_t frames = 0;
-  for (auto _ : state) {
-    sim.step();
-    frame_ms += sim.last_profile().frame;
-    ++frames;
-  }
+  const SteppedFrames frames = step_frames(sim, state);
+  const double n = frames.n;
   const SelfContactStats& c = *self_contact_stats(sim);
-  const double n = static_cast<double>(frames);
-  state.counters["triangles"] = sim.sheet().tris.size();
-  state.counters["frame_ms"] = frame_ms / n;
-  state.counters["contact_ms"] = c.ms / n;
-  state.counters["contact_share"] = c.ms / frame_ms;
+  add_contact_counters(sim, frames, c.ms, state);
   state.counters["queries"] = static_cast<double>(c.queries) / n;
   state.counters["proximities"] = static_cast<double>(c.proximities) / n;
 }

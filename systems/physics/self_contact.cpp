@@ -253,10 +253,11 @@ bool self_contact_candidates(const std::vector<Tri>& tris, const std::vector<Vec
     const double m = b.widest_margin;
     for (size_t t = 0; t < tris.size(); ++t) {
       const double step = largest_at_corners(tris[t], b.drift);
-      const Box own = path_box(tris[t], x0, x0, 0);
-      const double size = (own.hi - own.lo).maxCoeff();
+      Box& grown = b.grown[t] = path_box(tris[t], x0, x0, 0);
+      const double size = (grown.hi - grown.lo).maxCoeff();
       b.reach[t] = m + step + std::max(m, std::min(4 * step, size / 4));
-      b.grown[t] = path_box(tris[t], x0, x0, b.reach[t]);
+      grown.lo.array() -= b.reach[t];
+      grown.hi.array() += b.reach[t];
     }
     overlapping_pairs(tris, b.grown, b, b.cached);
   }
