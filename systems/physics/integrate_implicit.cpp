@@ -319,6 +319,8 @@ constexpr double kBrakeKappa[kBrakeLevels] = {0, 1, 4, 16};
 constexpr int32_t kBrakeSubsteps = 10;
 // The most rounds that only add self-contact pairs after the update rounds (implicit_substep).
 constexpr int kSelfPairRounds = 12;
+// The most rounds that only release stickers past Coulomb's cap, after all others (implicit_substep).
+constexpr int kFrictionRounds = 16;
 
 // The step solved a linear model: membrane energy W(x) − h f·v⁺ + ½ h² v⁺ᵀ K v⁺ (exact for bending and
 // gravity, which are quadratic and linear). Backward Euler on that model dissipates
@@ -712,6 +714,31 @@ bool update_contacts(const ImplicitParams& params, const Vertices& V, ImplicitSo
   return changed;
 }
 
+// Coulomb's cap on a sticker. The rounds of update_contacts let a sticker slide only when its support
+// exceeds μ λ in the solve before, and a sheet pushed along a table loads its stickers ring by ring, one
+// ring a solve: after four rounds the stickers beyond the fourth ring held what the fingers pushed (an A6
+// sheet dragged along a table by one finger held 15 N, its weight's friction being 5 mN). So the step ends
+// with rounds that only release: every sticker whose support's tangential impulse exceeds μ λ (reactions
+// of the last solve) slides, its friction μ λ against the load it held, and the step is solved again.
+// Only releasing, they end (at most kFrictionRounds). True when one was released.
+bool release_overloaded_stickers(ImplicitSolver& s) {
+  if (s.resting.empty()) return false;
+  resting_reactions(s);
+  bool released = false;
+  for (ImplicitSolver::RestingContact& c : s.resting) {
+    if (c.pair >= 0 || !c.stick) continue;
+    const double cap = c.mu * std::max(0.0, c.reaction);
+    const Vec3 along = c.impulse - c.normal * c.reaction;
+    const double load = along.norm();
+    if (load <= cap) continue;
+    c.stick = false;
+    c.friction = (cap / load) * along;
+    released = true;
+    s.stats.friction_releases += 1;
+  }
+  return released;
+}
+
 // ImplicitSolver::constrained from `resting`, for nv vertices.
 void mark_constrained(int32_t nv, ImplicitSolver& s) {
   s.constrained.assign(nv, 0);
@@ -886,6 +913,8 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   // The rounds end with friction taken from the motion of the solve before the last: where that friction
   // now pushes, the vertex sticks and the step is solved once more.
   if (!params.obstacles.empty() && friction_pushes(s))
+    if (!solve_with_energy_check(params, mp, kscale, brake, sheet, s)) return false;
+  for (int round = 0; !params.obstacles.empty() && round < kFrictionRounds && release_overloaded_stickers(s); ++round)
     if (!solve_with_energy_check(params, mp, kscale, brake, sheet, s)) return false;
   if (!s.resting.empty()) resting_reactions(s);
   s.stats.resting_contacts += static_cast<int64_t>(s.resting.size());

@@ -88,6 +88,7 @@ struct ImplicitStats {
   int64_t resting_contacts = 0;  // vertex-substeps resting on an obstacle, filtered in the solve
   int64_t arrivals = 0;        // vertices landing on an obstacle, constrained to its surface in a second solve
   int64_t releases = 0;        // resting vertices released because their support would pull (the step solved again)
+  int64_t friction_releases = 0;  // stickers set sliding because their support exceeded Coulomb's cap (solved again)
   // Wall time in ms, summed over the solver's life, of its parts: the block structure after a topology or
   // held-set change (pairs, keys, constant values, destinations; the analysis excluded), the symbolic
   // analyses, the assembly of matrix values and right-hand side, the numeric factorisations and the
