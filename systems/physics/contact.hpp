@@ -9,7 +9,9 @@
 // would pull is released and the step solved again (a few rounds). Friction is Coulomb's, in the solve: a
 // constrained vertex sticks (its whole velocity prescribed) while the tangential impulse of its support
 // stays within μ λ, λ its normal impulse n·(A v − b); otherwise it slides with the impulse μ λ against its
-// motion on the right-hand side, and a slider whose momentum along the surface is within μ λ sticks. Last,
+// motion on the right-hand side, and a slider whose momentum along the surface is within μ λ sticks; the
+// step ends with rounds that only release stickers past μ λ, so none holds more however many rings of
+// stickers a push has to load (docs/physics.md, "Coulomb's cap holds for the whole sheet"). Last,
 // every free vertex still inside an obstacle (what the rounds left) is put back on its surface, its
 // velocity into it removed and friction applied (`resolve_vertex_contact`, after Bridson, Fedkiw & Anderson
 // 2002), so the invariant is exact: no free vertex ends a substep inside an obstacle.
