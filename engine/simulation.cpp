@@ -196,6 +196,7 @@ struct Simulation::Impl {
     self_contact.friction = scenario.sim.self_contact.friction;
     self_contact.repulsions = false;  // the implicit step keeps the pairs apart (find_self_pairs)
     implicit_params.self_gap = self_contact.gap;
+    implicit_params.self_friction = self_contact.friction;
     self_contact.dt = implicit_params.dt;
     self_contact.run = implicit_params.run;
     membrane = membrane_params(m);

@@ -89,6 +89,14 @@ struct ImplicitSolver {
     double reaction = 0;  // normal impulse of the constraint over the substep, N·s (> 0: it supports)
     Vec3 impulse = Vec3::Zero();  // the constraint's whole impulse A v − b − friction
     int32_t pair = -1;    // an entry of ImplicitParams::self_pairs (its target follows the triangle), −1 an obstacle
+    // The velocity of the surface it rests on: zero on an obstacle, the triangle's point for a pair (from the
+    // solve before). Friction acts on the velocity relative to it, and a sticking pair moves with it.
+    Vec3 carried = Vec3::Zero();
+    // What the constraint prescribes: the normal velocity `target`, and when it sticks the surface's
+    // tangential velocity too.
+    Vec3 prescribed() const {
+      return target * normal + (stick ? (carried - normal * normal.dot(carried)).eval() : Vec3::Zero().eval());
+    }
   };
   std::vector<RestingContact> resting;
   std::vector<int32_t> resting_of_row;             // free row → its entry of `resting`, −1 when none
@@ -503,15 +511,16 @@ void filter_resting(std::vector<Mat3>& values, ImplicitSolver& s) {
   s.unfiltered_rhs = s.rhs;
   s.resting_of_row.assign(s.free_count, -1);
   for (size_t c = 0; c < s.resting.size(); ++c) s.resting_of_row[s.resting[c].row] = static_cast<int32_t>(c);
-  // v = S y + n z: the prescribed normal velocities z move to the right-hand side, rhs −= A z.
+  // v = S y + z: the prescribed velocities z (along the normal; a sticking pair's along its triangle too)
+  // move to the right-hand side, rhs −= A z.
+  std::vector<Vec3> prescribed(s.resting.size());
+  for (size_t c = 0; c < s.resting.size(); ++c) prescribed[c] = s.resting[c].prescribed();
   for (size_t k = 0; k < s.block_key.size(); ++k) {
     if (!s.ldlt.key_read[k]) continue;
     const auto [i, j] = s.block_key[k];
     const int32_t a = s.resting_of_row[i], b = s.resting_of_row[j];
-    if (b >= 0 && s.resting[b].target != 0)
-      s.rhs.segment<3>(3 * i) -= values[k] * (s.resting[b].target * s.resting[b].normal);
-    if (a >= 0 && i != j && s.resting[a].target != 0)
-      s.rhs.segment<3>(3 * j) -= values[k].transpose() * (s.resting[a].target * s.resting[a].normal);
+    if (b >= 0 && !prescribed[b].isZero(0)) s.rhs.segment<3>(3 * i) -= values[k] * prescribed[b];
+    if (a >= 0 && i != j && !prescribed[a].isZero(0)) s.rhs.segment<3>(3 * j) -= values[k].transpose() * prescribed[a];
   }
   // S = I − n nᵀ sliding, 0 sticking; the pivots of the prescribed directions keep the block's scale.
   auto filter = [&](int32_t c) -> Mat3 {
@@ -632,11 +641,11 @@ bool assemble_and_solve(const ImplicitParams& params, double kscale, const Verti
     s.stats.failures += 1;
     return false;
   }
-  for (const ImplicitSolver::RestingContact& c : s.resting) {  // v = S y + n z exactly
+  for (const ImplicitSolver::RestingContact& c : s.resting) {  // v = S y + z exactly
     auto y = s.solution.segment<3>(3 * c.row);
     if (c.stick) y.setZero();
     else y -= c.normal * c.normal.dot(y);
-    y += c.target * c.normal;
+    y += c.prescribed();
   }
   for (int32_t v = 0; v < nv; ++v) {
     const int32_t i = s.free_index[v];
@@ -688,7 +697,6 @@ bool update_contacts(const ImplicitParams& params, const Vertices& V, ImplicitSo
     // μ λ; one that slides gets the friction impulse μ λ against its motion (from the last solve). A slider
     // whose momentum along the surface, friction taken off, is within μ λ sticks.
     for (ImplicitSolver::RestingContact& c : s.resting) {
-      if (c.pair >= 0) continue;  // frictionless in the solve; the pass after it applies friction
       const double cap = c.mu * c.reaction;
       if (c.stick) {
         const Vec3 along = c.impulse - c.normal * c.reaction;
@@ -698,7 +706,7 @@ bool update_contacts(const ImplicitParams& params, const Vertices& V, ImplicitSo
         changed = true;
         continue;
       }
-      const Vec3& v = vnext[c.vertex];
+      const Vec3 v = vnext[c.vertex] - c.carried;  // relative to the surface
       const Vec3 momentum = V.mass[c.vertex] * (1 + h * s.alpha) * (v - c.normal * c.normal.dot(v)) - c.friction;
       if (momentum.norm() <= cap) {
         c.stick = true;
@@ -726,7 +734,7 @@ bool release_overloaded_stickers(ImplicitSolver& s) {
   resting_reactions(s);
   bool released = false;
   for (ImplicitSolver::RestingContact& c : s.resting) {
-    if (c.pair >= 0 || !c.stick) continue;
+    if (!c.stick) continue;
     const double cap = c.mu * std::max(0.0, c.reaction);
     const Vec3 along = c.impulse - c.normal * c.reaction;
     const double load = along.norm();
@@ -791,6 +799,18 @@ double triangle_normal_velocity(const ProximityPair& q, const std::vector<Vec3>&
   return vn;
 }
 
+// The velocity of the triangle's point nearest the pair's vertex, its corners on obstacles as above.
+Vec3 triangle_point_velocity(const ProximityPair& q, const std::vector<Vec3>& v, const ImplicitSolver& s) {
+  Vec3 point = Vec3::Zero();
+  for (int i = 0; i < 3; ++i) {
+    Vec3 vi = v[q.triangle[i]];
+    const int32_t c = s.obstacle_of_vertex.empty() ? -1 : s.obstacle_of_vertex[q.triangle[i]];
+    if (c >= 0) vi += s.resting[c].normal * (s.resting[c].target - s.resting[c].normal.dot(vi));
+    point += q.weights[i] * vi;
+  }
+  return point;
+}
+
 bool update_self_contacts(const ImplicitParams& params, const Vertices& V, const std::vector<Vec3>& v, ImplicitSolver& s) {
   if (!params.self_pairs || params.self_pairs->empty()) return false;
   ScopedTimer timer(s.stats.contact_ms);
@@ -805,6 +825,7 @@ bool update_self_contacts(const ImplicitParams& params, const Vertices& V, const
     if (c.pair < 0) continue;
     const ProximityPair& q = pairs[c.pair];
     c.target = target_of(q, triangle_normal_velocity(q, v, s), self_pair_goal(q, params.self_gap));
+    c.carried = triangle_point_velocity(q, v, s);
   }
   mark_constrained(static_cast<int32_t>(v.size()), s);
   bool changed = false;
@@ -822,8 +843,9 @@ bool update_self_contacts(const ImplicitParams& params, const Vertices& V, const
     double mu_o = 0;
     if (!params.obstacles.empty() && entered_surface(params.obstacles, params.contact_offset, V.x[q.vertex], to, n_o, on, mu_o))
       continue;
-    ImplicitSolver::RestingContact c{q.vertex, s.free_index[q.vertex], q.normal, 0.0, target};
+    ImplicitSolver::RestingContact c{q.vertex, s.free_index[q.vertex], q.normal, params.self_friction, target};
     c.pair = static_cast<int32_t>(k);
+    c.carried = triangle_point_velocity(q, v, s);
     s.resting.push_back(c);
     s.constrained[q.vertex] = 1;
     changed = true;
@@ -840,7 +862,7 @@ bool friction_pushes(ImplicitSolver& s) {
   bool changed = false;
   for (ImplicitSolver::RestingContact& c : s.resting) {
     if (c.stick) continue;
-    const Vec3& v = s.velocity_next[c.vertex];
+    const Vec3 v = s.velocity_next[c.vertex] - c.carried;
     if (c.friction.dot(v - c.normal * c.normal.dot(v)) > 0) {
       c.stick = true;
       c.friction.setZero();

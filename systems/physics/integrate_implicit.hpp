@@ -70,6 +70,9 @@ struct ImplicitParams {
   // obstacle, so the membrane answers in the same solve. Null or empty: the step is unchanged.
   const std::vector<ProximityPair>* self_pairs = nullptr;
   double self_gap = 0;
+  // Coulomb μ between a pair's vertex and its triangle, in the solve as on an obstacle, on the velocity
+  // relative to the triangle's point: a pair sticks (moves with that point) or slides against it.
+  double self_friction = 0;
 };
 
 struct ImplicitSolver;

@@ -226,6 +226,72 @@ TEST(Contact, ASheetDraggedOrPushedAlongATableFeelsCoulombsFrictionOfItsWeight) 
       << "frictionless: the mass damping only";
 }
 
+namespace {
+// A 4 cm square sheet lying at the self-contact gap on a 10 cm one held still, both in one Sheet (apart in
+// the pattern), under gravity tilted by θ along x (a slope of angle θ) with friction μ between them in the
+// implicit solve, for `seconds`: how far the top sheet's centroid moved. The pairs are found before every
+// substep as the engine finds them (Simulation's find_self_pairs).
+double layer_slide(double theta, double mu, double seconds) {
+  const Sheet bottom = test::grid_sheet(0.1, 0.1, 6, 6), top = test::grid_sheet(0.04, 0.04, 3, 3);
+  const int32_t nb = bottom.verts.size(), nt = top.verts.size();
+  SelfContactParams contact;
+  Sheet s;
+  s.verts.resize(nb + nt);
+  for (int32_t i = 0; i < nb; ++i) {
+    s.verts.rest[i] = bottom.verts.rest[i];
+    s.verts.x[i] = bottom.verts.x[i];
+  }
+  for (int32_t i = 0; i < nt; ++i) {
+    s.verts.rest[nb + i] = top.verts.rest[i] + Vec2(0.2, 0);
+    s.verts.x[nb + i] = Vec3(0.01 + top.verts.rest[i].x(), 0.03 + top.verts.rest[i].y(), contact.gap);
+  }
+  std::vector<Tri> tris = bottom.tris.tri;
+  for (const Tri& t : top.tris.tri) tris.push_back({t[0] + nb, t[1] + nb, t[2] + nb});
+  s.tris.resize(static_cast<int32_t>(tris.size()));
+  s.tris.tri = tris;
+  refresh_after_topology_change(s);
+
+  std::vector<int32_t> held(nb);
+  std::vector<Vec3> target(nb);
+  for (int32_t i = 0; i < nb; ++i) held[i] = i, target[i] = s.verts.x[i];
+  std::vector<ProximityPair> pairs;
+  ImplicitParams p;
+  p.gravity = 9.81 * Vec3(std::sin(theta), 0, -std::cos(theta));
+  p.self_pairs = &pairs;
+  p.self_gap = contact.gap;
+  p.self_friction = mu;
+  SelfContactBroadPhasePtr broad;
+  ImplicitSolverPtr solver;
+  auto top_centroid = [&] {
+    Vec3 c = Vec3::Zero();
+    for (int32_t i = nb; i < nb + nt; ++i) c += s.verts.x[i];
+    return (c / nt).eval();
+  };
+  const Vec3 start = top_centroid();
+  std::vector<Vec3> predicted;
+  const int steps = static_cast<int>(std::lround(seconds / p.dt));
+  for (int step = 0; step < steps; ++step) {
+    predicted = s.verts.x;
+    for (int32_t i = nb; i < nb + nt; ++i) predicted[i] += p.dt * s.verts.v[i];
+    self_contact_proximities(contact, s.tris.tri, s.verts.rest, s.verts.x, predicted, broad, pairs);
+    EXPECT_TRUE(implicit_substep(p, held, target, solver, s));
+    for (int32_t i = nb; i < nb + nt; ++i) EXPECT_GT(s.verts.x[i].z(), 0.5 * contact.gap) << "step " << step;
+  }
+  return (top_centroid() - start).norm();
+}
+}  // namespace
+
+// Friction between layers is Coulomb's in the solve, as on an obstacle, relative to the layer below: a sheet
+// on a sheet held on a slope stays when μ is above tan θ and otherwise slides as the slope test above says.
+// (Before, the pairs were frictionless in the solve and any slope let the top sheet slide.)
+TEST(Contact, FrictionBetweenLayersHoldsOrLetsSlideAsCoulombSays) {
+  const double theta = 20 * M_PI / 180, alpha = ImplicitParams{}.mass_damping, t = 0.25;
+  EXPECT_LT(layer_slide(theta, 1.2 * std::tan(theta), t), 1e-6);
+  const double mu = 0.8 * std::tan(theta), a = 9.81 * (std::sin(theta) - mu * std::cos(theta));
+  const double expected = a / alpha * (t - (1 - std::exp(-alpha * t)) / alpha);
+  EXPECT_NEAR(layer_slide(theta, mu, t), expected, 0.03 * expected) << "expected " << expected;
+}
+
 TEST(Contact, WithoutObstaclesTheStepIsUnchanged) {
   Sheet a = test::grid_sheet(0.2, 0.2, 8, 8, 0.2, 3), b = a;
   ImplicitParams plain;
