@@ -100,6 +100,7 @@ struct ImplicitSolver {
   };
   std::vector<RestingContact> resting;
   std::vector<int32_t> resting_of_row;             // free row → its entry of `resting`, −1 when none
+  std::vector<Vec3> resting_prescribed;            // scratch of filter_resting: each entry's prescribed()
   std::vector<uint8_t> constrained;                // per vertex: in `resting`
   std::vector<int32_t> obstacle_of_vertex;         // per vertex: its obstacle constraint in `resting`, −1 none
   std::vector<Mat3> unfiltered_values;             // the matrix and right-hand side before the filter,
@@ -137,7 +138,7 @@ size_t implicit_solver_bytes(const ImplicitSolver& s) {
          capacity_bytes(s.tri_check) + capacity_bytes(s.next_frame) + capacity_bytes(s.next_corners) +
          static_cast<size_t>(s.rhs.size() + s.solution.size()) * sizeof(double) + capacity_bytes(s.velocity_next) +
          capacity_bytes(s.pair_row) + capacity_bytes(s.pair_column) +
-         capacity_bytes(s.pair_key) + capacity_bytes(s.resting) + capacity_bytes(s.resting_of_row) + capacity_bytes(s.constrained) + capacity_bytes(s.obstacle_of_vertex) +
+         capacity_bytes(s.pair_key) + capacity_bytes(s.resting) + capacity_bytes(s.resting_of_row) + capacity_bytes(s.resting_prescribed) + capacity_bytes(s.constrained) + capacity_bytes(s.obstacle_of_vertex) +
          capacity_bytes(s.unfiltered_values) + static_cast<size_t>(s.unfiltered_rhs.size()) * sizeof(double);
 }
 
@@ -513,7 +514,8 @@ void filter_resting(std::vector<Mat3>& values, ImplicitSolver& s) {
   for (size_t c = 0; c < s.resting.size(); ++c) s.resting_of_row[s.resting[c].row] = static_cast<int32_t>(c);
   // v = S y + z: the prescribed velocities z (along the normal; a sticking pair's along its triangle too)
   // move to the right-hand side, rhs −= A z.
-  std::vector<Vec3> prescribed(s.resting.size());
+  std::vector<Vec3>& prescribed = s.resting_prescribed;
+  prescribed.resize(s.resting.size());
   for (size_t c = 0; c < s.resting.size(); ++c) prescribed[c] = s.resting[c].prescribed();
   for (size_t k = 0; k < s.block_key.size(); ++k) {
     if (!s.ldlt.key_read[k]) continue;
@@ -541,6 +543,18 @@ void filter_resting(std::vector<Mat3>& values, ImplicitSolver& s) {
     r = filter(static_cast<int32_t>(c)) * r;
     if (!s.resting[c].stick) r += s.resting[c].friction;
   }
+}
+
+// A sticker whose support's tangential impulse (from its last reactions) exceeds Coulomb's cap μ λ slides,
+// its friction μ λ along that impulse, against the load it held. True when it did.
+bool slide_if_overloaded(ImplicitSolver::RestingContact& c) {
+  const double cap = c.mu * std::max(0.0, c.reaction);
+  const Vec3 along = c.impulse - c.normal * c.reaction;
+  const double load = along.norm();
+  if (load <= cap) return false;
+  c.stick = false;
+  c.friction = (cap / load) * along;
+  return true;
 }
 
 // Each constrained vertex's impulse A v⁺ − b (less its sliding friction), from the unfiltered system.
@@ -697,15 +711,11 @@ bool update_contacts(const ImplicitParams& params, const Vertices& V, ImplicitSo
     // μ λ; one that slides gets the friction impulse μ λ against its motion (from the last solve). A slider
     // whose momentum along the surface, friction taken off, is within μ λ sticks.
     for (ImplicitSolver::RestingContact& c : s.resting) {
-      const double cap = c.mu * c.reaction;
       if (c.stick) {
-        const Vec3 along = c.impulse - c.normal * c.reaction;
-        if (along.norm() <= cap) continue;
-        c.stick = false;
-        c.friction = (cap / along.norm()) * along;
-        changed = true;
+        changed = slide_if_overloaded(c) || changed;
         continue;
       }
+      const double cap = c.mu * c.reaction;
       const Vec3 v = vnext[c.vertex] - c.carried;  // relative to the surface
       const Vec3 momentum = V.mass[c.vertex] * (1 + h * s.alpha) * (v - c.normal * c.normal.dot(v)) - c.friction;
       if (momentum.norm() <= cap) {
@@ -733,17 +743,11 @@ bool release_overloaded_stickers(ImplicitSolver& s) {
   if (s.resting.empty()) return false;
   resting_reactions(s);
   bool released = false;
-  for (ImplicitSolver::RestingContact& c : s.resting) {
-    if (!c.stick) continue;
-    const double cap = c.mu * std::max(0.0, c.reaction);
-    const Vec3 along = c.impulse - c.normal * c.reaction;
-    const double load = along.norm();
-    if (load <= cap) continue;
-    c.stick = false;
-    c.friction = (cap / load) * along;
-    released = true;
-    s.stats.friction_releases += 1;
-  }
+  for (ImplicitSolver::RestingContact& c : s.resting)
+    if (c.stick && slide_if_overloaded(c)) {
+      released = true;
+      s.stats.friction_releases += 1;
+    }
   return released;
 }
 
@@ -786,28 +790,26 @@ double self_pair_goal(const ProximityPair& q, double gap) {
   return q.distance < gap ? q.distance + 0.1 * (gap - q.distance) : gap;
 }
 
-// The triangle's velocity along the pair's normal at its nearest point; a corner resting on an obstacle
-// moves as its constraint prescribes (the solve that gave `v` may have had it sinking, before it arrived).
+// The velocity of the pair's triangle corner i; a corner resting on an obstacle moves as its constraint
+// prescribes (the solve that gave `v` may have had it sinking, before it arrived).
+Vec3 pair_corner_velocity(const ProximityPair& q, int i, const std::vector<Vec3>& v, const ImplicitSolver& s) {
+  Vec3 vi = v[q.triangle[i]];
+  const int32_t c = s.obstacle_of_vertex.empty() ? -1 : s.obstacle_of_vertex[q.triangle[i]];
+  if (c >= 0) vi += s.resting[c].normal * (s.resting[c].target - s.resting[c].normal.dot(vi));
+  return vi;
+}
+
+// The triangle's velocity along the pair's normal at its nearest point.
 double triangle_normal_velocity(const ProximityPair& q, const std::vector<Vec3>& v, const ImplicitSolver& s) {
   double vn = 0;
-  for (int i = 0; i < 3; ++i) {
-    Vec3 vi = v[q.triangle[i]];
-    const int32_t c = s.obstacle_of_vertex.empty() ? -1 : s.obstacle_of_vertex[q.triangle[i]];
-    if (c >= 0) vi += s.resting[c].normal * (s.resting[c].target - s.resting[c].normal.dot(vi));
-    vn += q.weights[i] * q.normal.dot(vi);
-  }
+  for (int i = 0; i < 3; ++i) vn += q.weights[i] * q.normal.dot(pair_corner_velocity(q, i, v, s));
   return vn;
 }
 
-// The velocity of the triangle's point nearest the pair's vertex, its corners on obstacles as above.
+// The velocity of the triangle's point nearest the pair's vertex.
 Vec3 triangle_point_velocity(const ProximityPair& q, const std::vector<Vec3>& v, const ImplicitSolver& s) {
   Vec3 point = Vec3::Zero();
-  for (int i = 0; i < 3; ++i) {
-    Vec3 vi = v[q.triangle[i]];
-    const int32_t c = s.obstacle_of_vertex.empty() ? -1 : s.obstacle_of_vertex[q.triangle[i]];
-    if (c >= 0) vi += s.resting[c].normal * (s.resting[c].target - s.resting[c].normal.dot(vi));
-    point += q.weights[i] * vi;
-  }
+  for (int i = 0; i < 3; ++i) point += q.weights[i] * pair_corner_velocity(q, i, v, s);
   return point;
 }
 
@@ -939,9 +941,15 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   // pair is held to its cap by the update rounds alone (docs/physics.md, "Self-contact", Known gaps).
   if (!params.obstacles.empty() && friction_pushes(s))
     if (!solve_with_energy_check(params, mp, kscale, brake, sheet, s)) return false;
-  for (int round = 0; !params.obstacles.empty() && round < kFrictionRounds && release_overloaded_stickers(s); ++round)
+  bool reactions_current = false;  // the last release check read the last solve's reactions
+  for (int round = 0; !params.obstacles.empty() && round < kFrictionRounds; ++round) {
+    if (!release_overloaded_stickers(s)) {
+      reactions_current = true;
+      break;
+    }
     if (!solve_with_energy_check(params, mp, kscale, brake, sheet, s)) return false;
-  if (!s.resting.empty()) resting_reactions(s);
+  }
+  if (!s.resting.empty() && !reactions_current) resting_reactions(s);
   s.stats.resting_contacts += static_cast<int64_t>(s.resting.size());
   // Obstacles after the solve (systems/physics/contact.hpp): free vertices only, a finger wins over a table.
   // Without obstacles the step is bit for bit what it was.

@@ -147,6 +147,14 @@ double slope_slide(double theta, double mu, double seconds) {
   }
   return (centroid(s) - start).norm();
 }
+
+
+// Rigid sliding down a slope θ with friction μ and the mass damping α: dv/dt = g (sin θ − μ cos θ) − α v,
+// so from rest s(t) = (a/α) (t − (1 − e^{−αt})/α).
+double rigid_slide(double theta, double mu, double t) {
+  const double alpha = ImplicitParams{}.mass_damping, a = 9.81 * (std::sin(theta) - mu * std::cos(theta));
+  return a / alpha * (t - (1 - std::exp(-alpha * t)) / alpha);
+}
 }  // namespace
 
 TEST(Contact, FrictionAboveTheSlopesTangentHoldsTheSheet) {
@@ -155,11 +163,8 @@ TEST(Contact, FrictionAboveTheSlopesTangentHoldsTheSheet) {
 }
 
 TEST(Contact, FrictionBelowTheSlopesTangentLetsItSlideAsCoulombSays) {
-  // Rigid sliding with mass damping α: dv/dt = g (sin θ − μ cos θ) − α v, so from rest
-  // s(t) = (a/α) (t − (1 − e^{−αt})/α).
-  const double theta = 20 * M_PI / 180, mu = 0.8 * std::tan(theta), t = 1.0, alpha = ImplicitParams{}.mass_damping;
-  const double a = 9.81 * (std::sin(theta) - mu * std::cos(theta));
-  const double expected = a / alpha * (t - (1 - std::exp(-alpha * t)) / alpha);
+  const double theta = 20 * M_PI / 180, mu = 0.8 * std::tan(theta), t = 1.0;
+  const double expected = rigid_slide(theta, mu, t);
   const double moved = slope_slide(theta, mu, t);
   EXPECT_NEAR(moved, expected, 0.02 * expected) << "expected " << expected;
 }
@@ -285,10 +290,9 @@ double layer_slide(double theta, double mu, double seconds) {
 // on a sheet held on a slope stays when μ is above tan θ and otherwise slides as the slope test above says.
 // (Before, the pairs were frictionless in the solve and any slope let the top sheet slide.)
 TEST(Contact, FrictionBetweenLayersHoldsOrLetsSlideAsCoulombSays) {
-  const double theta = 20 * M_PI / 180, alpha = ImplicitParams{}.mass_damping, t = 0.25;
+  const double theta = 20 * M_PI / 180, t = 0.25;
   EXPECT_LT(layer_slide(theta, 1.2 * std::tan(theta), t), 1e-6);
-  const double mu = 0.8 * std::tan(theta), a = 9.81 * (std::sin(theta) - mu * std::cos(theta));
-  const double expected = a / alpha * (t - (1 - std::exp(-alpha * t)) / alpha);
+  const double mu = 0.8 * std::tan(theta), expected = rigid_slide(theta, mu, t);
   EXPECT_NEAR(layer_slide(theta, mu, t), expected, 0.03 * expected) << "expected " << expected;
 }
 
