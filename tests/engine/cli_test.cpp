@@ -145,6 +145,24 @@ TEST_F(Cli, MissingFileAndDirectoryAreExit2) {
 
 // ---- usage errors ----
 
+// papertear-self-intersections (issue 25's measure) takes the scenario's --set like papertear run, checks
+// after every substep with --substeps (frames x substeps states when nothing stops for tearing), and
+// refuses a bad setting with one line naming the file.
+TEST_F(Cli, SelfIntersectionsChecksEverySubstepWithTheSettingsGiven) {
+  const std::string tool = std::string(PT_BINARY_DIR) + "/bin/papertear-self-intersections";
+  const std::string file = good().string();
+  const Result r = run_program(tool, {file, "--substeps", "--set", "sim.substeps=4"});
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("largest 0 intersecting pairs; 0 of 12 checked substeps have some"), std::string::npos) << r.out;
+  const Result frames = run_program(tool, {file, "--every", "1"});
+  EXPECT_NE(frames.out.find("0 of 3 checked frames have some"), std::string::npos) << frames.out;
+  const Result bad = run_program(tool, {file, "--set", "sim.substeps=-1"});
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_TRUE(one_line(bad.err)) << bad.err;
+  EXPECT_NE(bad.err.find(file), std::string::npos) << bad.err;
+  EXPECT_EQ(run_program(tool, {file, "--set"}).status, 2) << "a missing value";
+}
+
 TEST_F(Cli, UsageErrorsAreExit2OneLine) {
   const fs::path g = good();
   expect_input_error(run({}), "no subcommand");
