@@ -30,7 +30,7 @@ const std::vector<std::string>& variation_keys() {
       "sim.iterations",         "sim.relaxation_radius",      "tearing.radius",
       "tearing.snap",           "tearing.shielding_radius",   "tearing.max_turn_deg",
       "tearing.start_wrap",     "tearing.start_length",       "tearing.edge_radius",
-      "tearing.bearing_length", "finger_speed"};
+      "tearing.bearing_length", "tearing.opening_floor",    "finger_speed"};
   return keys;
 }
 
@@ -89,6 +89,7 @@ void apply_variation(const std::string& key, double value, Scenario& s) {
   else if (key == "tearing.start_length") s.tearing.start_length = value;
   else if (key == "tearing.edge_radius") s.tearing.edge_radius = value;
   else if (key == "tearing.bearing_length") s.tearing.bearing_length = value;
+  else if (key == "tearing.opening_floor") s.tearing.opening_floor = value;
   else if (key == "finger_speed") {
     // Motions play `value` times faster: every key time is divided by it.
     const double scale = value > 0 ? value : 1.0;

@@ -346,7 +346,7 @@ void read_tearing(const Reader& r, const json& j, TearingSettings& t) {
   const std::string path = "tearing";
   r.expect_object(j, path);
   r.check_keys(j, path, {"direction", "radius", "snap", "shielding_radius", "max_turn_deg", "start_wrap",
-                         "start_length", "edge_radius", "bearing_length"});
+                         "start_length", "edge_radius", "bearing_length", "opening_floor"});
   if (j.contains("direction")) t.direction = r.string(j["direction"], child(path, "direction"));
   if (j.contains("radius")) t.radius = r.number(j["radius"], child(path, "radius"));
   if (j.contains("snap")) t.snap = r.number(j["snap"], child(path, "snap"));
@@ -355,7 +355,8 @@ void read_tearing(const Reader& r, const json& j, TearingSettings& t) {
                                    {"start_wrap", &t.start_wrap},
                                    {"start_length", &t.start_length},
                                    {"edge_radius", &t.edge_radius},
-                                   {"bearing_length", &t.bearing_length}})
+                                   {"bearing_length", &t.bearing_length},
+                                   {"opening_floor", &t.opening_floor}})
     if (j.contains(key)) *value = r.number(j[key], child(path, key));
 }
 
@@ -786,6 +787,7 @@ void validate_tearing(const Scenario& s) {
   check_range(file, "tearing.shielding_radius", s.tearing.shielding_radius, 0, kMaxCoordinate, false);
   check_range(file, "tearing.start_wrap", s.tearing.start_wrap, 0, kMaxCoordinate, false);
   check_range(file, "tearing.bearing_length", s.tearing.bearing_length, 0, kMaxCoordinate, false);
+  check_range(file, "tearing.opening_floor", s.tearing.opening_floor, 0, 1, false);
   for (const auto& [key, value] : {std::pair<const char*, double>{"tearing.start_length", s.tearing.start_length},
                                    {"tearing.edge_radius", s.tearing.edge_radius}}) {
     check_positive(file, key, value);

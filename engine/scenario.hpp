@@ -40,6 +40,7 @@ struct TearingSettings {
   double edge_radius = 0.005;      // m: the disc over which that tension is read
   double bearing_length = 0.005;   // m: a load's bearing is read this far along its path (smaller notch
                                    // features do not steer)
+  double opening_floor = 0.1;      // the least weight of a pull opening a tip in the sheet's plane (mode I)
   // A tension-ray tip follows O'Keefe's hyperbola, on which an offset from the snap persists and grows:
   // 0.03 of an edge keeps a symmetric pull within 0.3% of its mediator (0.06: up to 8%) without slivers.
   double snap_fraction() const {

@@ -220,6 +220,7 @@ struct Simulation::Impl {
     tearing_params.rays.start_length = scenario.tearing.start_length;
     tearing_params.rays.edge_radius = scenario.tearing.edge_radius;
     tearing_params.rays.rays.bearing_length = scenario.tearing.bearing_length;
+    tearing_params.rays.rays.opening_floor = scenario.tearing.opening_floor;
 
     update_finger_targets(0.0, sheet.hands, sheet.fingers);
     for (Finger& f : sheet.fingers) f.reaction.setZero();

@@ -69,7 +69,8 @@ json scenario_document(const pt::Scenario& s) {
   doc["tearing"] = {{"direction", t.direction},           {"radius", t.radius},
                     {"shielding_radius", t.shielding_radius}, {"max_turn_deg", t.max_turn_deg},
                     {"start_wrap", t.start_wrap},         {"start_length", t.start_length},
-                    {"edge_radius", t.edge_radius},       {"bearing_length", t.bearing_length}};
+                    {"edge_radius", t.edge_radius},       {"bearing_length", t.bearing_length},
+                    {"opening_floor", t.opening_floor}};
   if (t.snap) doc["tearing"]["snap"] = *t.snap;
   json fingers = json::array();
   for (const pt::FingerSpec& f : s.fingers) {

@@ -117,7 +117,7 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
   out.valid = false;
   out.status = TensionRaysStatus::NotBoundary;
   out.direction = out.left_direction = out.right_direction = out.bisector = Vec2::Zero();
-  out.theta = out.left_force = out.right_force = out.energy_release = 0;
+  out.theta = out.left_force = out.right_force = out.energy_release = out.in_plane = 0;
   out.left_count = out.right_count = out.iterations = out.other_piece = out.ignored = 0;
   out.rays.clear();
   out.paths.paths.clear();
@@ -232,6 +232,10 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
   // bearings, so only the in-plane part is weighted: Er = ‖(Δ·n) n + cos(θ/2) (Δ − (Δ·n) n)‖ / e with
   // Δ = P_L − P_R (the two parts are orthogonal). A hand lifting one side of a notch beside it (θ near π)
   // then tears it as a trouser's leg does, at F ≈ Ef·e, not at Ef·e / cos(θ/2).
+  // cos(θ/2) has a floor, params.opening_floor: pulls exactly opposite across the tip open it in the
+  // plane (mode I), which paper resists far better than a tear out of it, but not forever. Without it
+  // a tip level with two fingers pulling apart (demo's inner fingers, 1 mm off their line) read Er ≈ 0
+  // and stalled while a substep loaded the strip by 4 N (docs/tearing.md, "Direction and Er").
   const Vec2 ul = s.left.normalized(), ur = s.right.normalized();
   out.left_direction = ul;
   out.right_direction = ur;
@@ -240,7 +244,8 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
   out.opening_force = out.opening.norm();
   const Vec3& open = out.opening;
   const double across = params.normal.squaredNorm() > 0 ? open.dot(params.normal) : 0.0;
-  const double along = (open - across * params.normal).norm() * std::cos(0.5 * out.theta);
+  out.in_plane = std::max(std::cos(0.5 * out.theta), params.opening_floor);
+  const double along = (open - across * params.normal).norm() * out.in_plane;
   out.energy_release = std::sqrt(across * across + along * along) / params.thickness;
   const Vec2 sum = ul + ur;
   const double sum_norm = sum.norm();
@@ -276,7 +281,7 @@ double sensed_energy_release(const TensionRays& rays, const Vec3& normal, const 
   const Vec3& d = rays.opening;
   const double across = d.dot(normal);
   const double pull = std::max(0.0, d.dot(a)), shear = d.dot(h);
-  const double c = std::cos(0.5 * rays.theta);
+  const double c = rays.in_plane;
   return std::sqrt(across * across + c * c * (pull * pull + shear * shear)) / thickness;
 }
 

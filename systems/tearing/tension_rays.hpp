@@ -40,6 +40,10 @@ struct TensionRaysParams {
   // The length over which a load's bearing is read (see LoadRay::bearing): notch features smaller than
   // this (a 1 mm-wide slit's flat end) do not steer the tear or weaken Er.
   double bearing_length = 0.005;  // m
+  // The least weight of the in-plane pull (Er below): O'Keefe's cos(θ/2) vanishes for pulls exactly
+  // opposite across the tip, but a crack pulled open in its plane does open (mode I), at several times
+  // the force a tear out of the plane needs.
+  double opening_floor = 0.1;
   // The sheet's unit normal at p (3D), or zero (every pull read as in the plane): the part of the opening
   // force across the sheet tears the lips apart as a trouser's legs, whatever the bearings (Er below).
   Vec3 normal = Vec3::Zero();
@@ -84,7 +88,8 @@ struct TensionRays {
   Vec3 opening = Vec3::Zero();     // Σ_left R_j − Σ_right R_j = P_L − P_R, N
   int32_t left_count = 0, right_count = 0;
   Vec2 left_direction = Vec2::Zero(), right_direction = Vec2::Zero();  // u_L, u_R (unit)
-  double energy_release = 0;       // Er = ‖P_L − P_R‖ cos(θ/2) / e, J/m²
+  double in_plane = 0;             // the in-plane pull's weight, max(cos(θ/2), opening_floor)
+  double energy_release = 0;       // Er = ‖P_L − P_R‖ · in_plane / e (in-plane pulls), J/m²
   Vec2 bisector = Vec2::Zero();    // final b of the split (unit)
   int32_t iterations = 0;          // split iterations after b0
   int32_t other_piece = 0;         // load points ignored: on another piece or released (vertex < 0)
@@ -118,7 +123,7 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
 // the tear's line (in the sheet's plane at p, whose unit normal is `normal`), and along that line. Pushing
 // the two sides together closes the tear, so only a pull apart counts; the pull along the line (a shear)
 // counts whatever its sense:
-//   Er = sqrt((Δ·n)² + cos²(θ/2) (max(0, Δ·a)² + (Δ·h)²)) / e,
+//   Er = sqrt((Δ·n)² + c² (max(0, Δ·a)² + (Δ·h)²)) / e,   c = rays.in_plane = max(cos(θ/2), opening_floor),
 // a = `apart` made a unit vector in the plane, h = n × a. Where Δ·a ≥ 0 it equals compute_tension_rays'
 // Er. `apart` (any length) parallel to the normal or zero leaves that Er.
 double sensed_energy_release(const TensionRays& rays, const Vec3& normal, const Vec3& apart, double thickness);

@@ -502,7 +502,8 @@ TEST(Scenario, TearingIsRead) {
   EXPECT_EQ(t.tearing.snap_fraction(), 0.2);
   const pt::Scenario k = pt::parse_scenario(
       R"({"sheet": {"preset": "A6"}, "tearing": {"shielding_radius": 0, "max_turn_deg": 90, "start_wrap": 0.002,
-          "start_length": 0.02, "edge_radius": 0.004, "bearing_length": 0.001},
+          "start_length": 0.02, "edge_radius": 0.004, "bearing_length": 0.001,
+          "opening_floor": 0.25},
           "fingers": [{"name": "A", "at": [0.02, 0.14]}]})",
       "x.json");
   EXPECT_EQ(k.tearing.shielding_radius, 0.0);
@@ -511,6 +512,7 @@ TEST(Scenario, TearingIsRead) {
   EXPECT_EQ(k.tearing.start_length, 0.02);
   EXPECT_EQ(k.tearing.edge_radius, 0.004);
   EXPECT_EQ(k.tearing.bearing_length, 0.001);
+  EXPECT_EQ(k.tearing.opening_floor, 0.25);
 }
 
 // A scenario without the tearing step's keys runs the step's own defaults (the settings repeat them, as
@@ -525,6 +527,7 @@ TEST(Scenario, TearingKeysDefaultToTheTearingStepsConstants) {
   EXPECT_EQ(d.start_length, rays.start_length);
   EXPECT_EQ(d.edge_radius, rays.edge_radius);
   EXPECT_EQ(d.bearing_length, rays.rays.bearing_length);
+  EXPECT_EQ(d.opening_floor, rays.rays.opening_floor);
 }
 
 TEST(BadInput, Tearing) {
@@ -547,6 +550,7 @@ TEST(BadInput, Tearing) {
       {R"({"edge_radius": 0})", "tearing.edge_radius: must be positive"},
       {R"({"edge_radius": 5000})", "tearing.edge_radius: absurd size"},
       {R"({"bearing_length": -1})", "tearing.bearing_length"},
+      {R"({"opening_floor": 1.5})", "tearing.opening_floor: must be in [0, 1]"},
       {R"({"turn": 1})", "tearing"},
       {R"({"turn": 1})", "turn"},
       {R"([1])", "tearing"},

@@ -399,14 +399,42 @@ TEST(TensionRays, OnlyAPullApartOpensInThePlane) {
   EXPECT_EQ(sensed_energy_release(push, up, up, kThickness), push.energy_release);
 }
 
-// θ = π: opposite in-plane pulls release nothing and give no direction.
-TEST(TensionRays, OppositePullsReleaseNothing) {
+// θ = π: opposite in-plane pulls give no direction, and release only the opening floor's share of their
+// pull (mode I), not nothing; with the floor at 0, nothing (O'Keefe's cos(θ/2) alone).
+TEST(TensionRays, OppositePullsReleaseOnlyTheOpeningFloor) {
   const Sheet s = one_slit();
   const TensionRays r = rays_at(s, vertex_at(s, kSlitTip), {{Vec2(0.03, 0.06), 1.0}, {Vec2(0.17, 0.06), 3.0}});
   EXPECT_FALSE(r.valid);
   EXPECT_EQ(r.status, TensionRaysStatus::Opposite);
   EXPECT_NEAR(r.theta, kPi, 1e-15);
-  EXPECT_LT(std::abs(r.energy_release), 1e-12 * 4.0 / kThickness);
+  const double floor = TensionRaysParams{}.opening_floor;
+  EXPECT_EQ(r.in_plane, floor);
+  EXPECT_NEAR(r.energy_release * kThickness, floor * 4.0, 1e-12);
+  TensionRaysParams none = params();
+  none.opening_floor = 0;
+  std::vector<LoadPoint> loads{{vertex_at(s, Vec2(0.03, 0.06)), Vec3(0, 0, 1)}, {vertex_at(s, Vec2(0.17, 0.06)), Vec3(0, 0, -3)}};
+  TensionRaysScratch scratch;
+  TensionRays zero;
+  compute_tension_rays(s.verts.rest, s.tris.piece, s.topo, vertex_at(s, kSlitTip), loads, none, scratch, zero);
+  EXPECT_LT(std::abs(zero.energy_release), 1e-12 * 4.0 / kThickness);
+}
+
+// A tip just past the line of two fingers pulling apart (θ a little under π, as demo's first tip 1 mm
+// from its inner fingers' line): O'Keefe's weight cos(θ/2) is below the floor, so Er is the floor's share
+// of the pull; farther from their line cos(θ/2) takes over again.
+TEST(TensionRays, NearlyOppositePullsReadTheOpeningFloor) {
+  const Sheet s = one_slit();
+  const int32_t p = vertex_at(s, kSlitTip);
+  const double floor = TensionRaysParams{}.opening_floor;
+  const TensionRays near = rays_at(s, p, {{Vec2(0.0, 0.05), 1.0}, {Vec2(0.2, 0.05), 1.0}});  // 1 cm below, 10 cm off
+  ASSERT_TRUE(near.valid);
+  EXPECT_NEAR(near.theta, kPi - 2 * std::atan(0.1), 1e-12);
+  ASSERT_LT(std::cos(0.5 * near.theta), floor);
+  EXPECT_EQ(near.in_plane, floor);
+  EXPECT_NEAR(near.energy_release * kThickness, floor * 2.0, 1e-12);
+  const TensionRays far = rays_at(s, p, {{Vec2(0.07, 0.03), 1.0}, {Vec2(0.13, 0.03), 1.0}});  // θ = 90°
+  ASSERT_TRUE(far.valid);
+  EXPECT_NEAR(far.energy_release * kThickness, 2.0 * std::cos(0.25 * kPi), 1e-12);
 }
 
 // The result depends on positions only: a rigid motion of the pattern moves t with it.
