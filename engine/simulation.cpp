@@ -461,7 +461,8 @@ struct Simulation::Impl {
   static constexpr int kMaxStopRefinements = 8;
   double refine_stop(double before, double after) {
     std::vector<Vec3>& x = sheet.verts.x;
-    stop_after = x;
+    stop_end = x;    // τ = 1: the bisection's states lie on the line from stop_before.x to it
+    stop_after = x;  // the earliest stopping state found
     std::vector<Finger> reacted_before = stop_before.fingers;  // the fingers at the bracket's ends
     std::vector<Finger> reacted_after = sheet.fingers;
     double lo = 0, hi = 1;
@@ -469,7 +470,7 @@ struct Simulation::Impl {
     for (int level = 0; level < kMaxStopRefinements && reaction_jump(reacted_before, reacted_after) > kStopForceResolution;
          ++level) {
       const double mid = 0.5 * (lo + hi);
-      for (size_t i = 0; i < x.size(); ++i) x[i] = stop_before.x[i] + mid * (stop_after[i] - stop_before.x[i]);
+      for (size_t i = 0; i < x.size(); ++i) x[i] = stop_before.x[i] + mid * (stop_end[i] - stop_before.x[i]);
       forces_of_after = stop_due();
       if (forces_of_after) {
         hi = mid;
@@ -500,7 +501,7 @@ struct Simulation::Impl {
     std::vector<Finger> fingers;
   };
   SubstepStart stop_before;
-  std::vector<Vec3> stop_after;
+  std::vector<Vec3> stop_end, stop_after;
   void save_substep_start() {
     stop_before.x = sheet.verts.x;
     stop_before.fingers = sheet.fingers;
