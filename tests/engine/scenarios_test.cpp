@@ -248,33 +248,15 @@ TEST(Scenarios, HandLinesKeepACoarsePushedSheetFromLocking) {
 }
 
 // Sheets torn from their border by fingers near it tear without a finger slipping, and no finger holds
-// more than 5 N. The zigzag's hand lifting one side of the notch tears it as a trouser's leg (3.1 N on
-// its own mesh; 5.2 N when every pull was read in the plane, docs/tearing.md "Direction and Er").
-TEST(Scenarios, BorderTearsStartWithoutASlip) {
-  const std::pair<const char*, double> scenes[] = {
-      {"demo.json", 5.0},          {"fig13-twist.json", 5.0},     {"fig14-straight.json", 5.0},
-      {"fig14-inplane.json", 5.0}, {"fig15-curved.json", 5.0},    {"fig16-direction.json", 5.0},
-      {"fig21-notch.json", 5.0},   {"start-inward.json", 5.0},    {"start-finger.json", 5.0},
-      {"torn-in-two.json", 5.0},   {"fig12-junction.json", 5.0}, {"fig16-zigzag.json", 5.0},
-      {"fig17-branching.json", 5.0}};
-  for (const auto& [file, peak] : scenes) {
-    ScenarioRun r = run_scenario(load_scenario(scenario_path(file)));
-    EXPECT_FALSE(r.sheet().tears.empty()) << file;
-    for (const Finger& f : r.sheet().fingers) {
-      EXPECT_EQ(f.slips, 0) << file << " finger " << f.name;
-      EXPECT_LE(f.max_force, peak) << file << " finger " << f.name;
-    }
-    expect_no_violations(*r.sim);
-  }
-}
-
-// The same on 4 meshes of each (mesh seeds 0-3, the meshing frame turned 17 degrees per seed, as
-// tools/paper_check.py --seeds 4), with table-tear: no slip and at most 5 N. A start cut within one substep
-// stops where Griffith's test first holds on the substep's straight path (the stop's bisection); when the
-// bisection mixed its ends, start-finger, table-tear and the zigzag read 5.05-5.65 N on one mesh each, and
-// before the opening floor a tip level with demo's inner fingers stalled until they held 7.2 N
-// (docs/tearing.md, "Direction and Er at a tip" and "Quasi-static tearing"). fig18-crumple and
-// u-twist-pull, whose fingers hold inside the sheet, slip at their grip (docs/tearing.md, "Known gaps").
+// more than 5 N, on their own meshes (seed 0) and 3 more (mesh seeds 1-3, the meshing frame turned 17
+// degrees per seed, as tools/paper_check.py --seeds 4). The zigzag's hand lifting one side of the notch
+// tears it as a trouser's leg (3.1 N on its own mesh; 5.2 N when every pull was read in the plane,
+// docs/tearing.md "Direction and Er"). A start cut within one substep stops where Griffith's test first
+// holds on the substep's straight path (the stop's bisection); when the bisection mixed its ends,
+// start-finger, table-tear and the zigzag read 5.05-5.65 N on one mesh each, and before the opening floor
+// a tip level with demo's inner fingers stalled until they held 7.2 N (docs/tearing.md, "Direction and Er
+// at a tip" and "Quasi-static tearing"). fig18-crumple and u-twist-pull, whose fingers hold inside the
+// sheet, slip at their grip (docs/tearing.md, "Known gaps").
 TEST(Scenarios, BorderTearsStayBelow5NOnFourMeshes) {
   const char* scenes[] = {"demo.json",          "fig12-junction.json", "fig13-twist.json",  "fig14-inplane.json",
                           "fig14-straight.json", "fig15-curved.json",   "fig16-direction.json", "fig16-zigzag.json",
@@ -291,6 +273,7 @@ TEST(Scenarios, BorderTearsStayBelow5NOnFourMeshes) {
         EXPECT_EQ(f.slips, 0) << file << " seed " << seed << " finger " << f.name;
         EXPECT_LE(f.max_force, 5.0) << file << " seed " << seed << " finger " << f.name;
       }
+      expect_no_violations(*r.sim);
     }
   }
 }

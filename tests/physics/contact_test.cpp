@@ -148,7 +148,6 @@ double slope_slide(double theta, double mu, double seconds) {
   return (centroid(s) - start).norm();
 }
 
-
 // Rigid sliding down a slope θ with friction μ and the mass damping α: dv/dt = g (sin θ − μ cos θ) − α v,
 // so from rest s(t) = (a/α) (t − (1 − e^{−αt})/α).
 double rigid_slide(double theta, double mu, double t) {

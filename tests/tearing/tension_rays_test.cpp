@@ -40,7 +40,7 @@ struct Load {
 };
 
 TensionRays rays_at(const Sheet& s, int32_t p, const std::vector<Load>& loads,
-                    const Vec2& previous_direction = Vec2::Zero()) {
+                    const Vec2& previous_direction = Vec2::Zero(), TensionRaysParams rp = params()) {
   // Loads left of p (by x, or by the lip they hold) pull up and the others down, as a trouser's legs: the
   // sides' summed reactions then differ by F_L + F_R.
   std::vector<LoadPoint> points;
@@ -52,7 +52,6 @@ TensionRays rays_at(const Sheet& s, int32_t p, const std::vector<Load>& loads,
   }
   TensionRaysScratch scratch;
   TensionRays out;
-  TensionRaysParams rp = params();
   rp.previous_direction = previous_direction;
   compute_tension_rays(s.verts.rest, s.tris.piece, s.topo, p, points, rp, scratch, out);
   return out;
@@ -412,10 +411,8 @@ TEST(TensionRays, OppositePullsReleaseOnlyTheOpeningFloor) {
   EXPECT_NEAR(r.energy_release * kThickness, floor * 4.0, 1e-12);
   TensionRaysParams none = params();
   none.opening_floor = 0;
-  std::vector<LoadPoint> loads{{vertex_at(s, Vec2(0.03, 0.06)), Vec3(0, 0, 1)}, {vertex_at(s, Vec2(0.17, 0.06)), Vec3(0, 0, -3)}};
-  TensionRaysScratch scratch;
-  TensionRays zero;
-  compute_tension_rays(s.verts.rest, s.tris.piece, s.topo, vertex_at(s, kSlitTip), loads, none, scratch, zero);
+  const TensionRays zero =
+      rays_at(s, vertex_at(s, kSlitTip), {{Vec2(0.03, 0.06), 1.0}, {Vec2(0.17, 0.06), 3.0}}, Vec2::Zero(), none);
   EXPECT_LT(std::abs(zero.energy_release), 1e-12 * 4.0 / kThickness);
 }
 
