@@ -217,6 +217,10 @@ struct Tip {
   Vec2 direction = Vec2::Zero();  // direction of the last segment in the pattern (unit), zero if none
 };
 
+// How a finger's or a hand's keys are joined in time (docs/scenario-format.md, "interpolation"): at
+// constant speed from key to key, or by a monotone cubic that starts and ends at rest (systems/physics/fingers.hpp).
+enum class KeyInterpolation : uint8_t { linear, smooth };
+
 struct FingerKey {
   double t = 0;                 // s
   Vec3 position = Vec3::Zero(); // world, m
@@ -234,6 +238,7 @@ struct Finger {
   Vec2 uv = Vec2::Zero();        // where it was put, pattern
   int32_t vertex = -1;           // the vertex it holds (−1 when released)
   std::vector<FingerKey> keys;
+  KeyInterpolation interpolation = KeyInterpolation::linear;
   int32_t hand = -1;
   Vec3 start = Vec3::Zero();     // world position when put (z = 0 on the flat sheet)
   Vec3 target = Vec3::Zero();    // prescribed position now
@@ -261,6 +266,7 @@ struct Hand {
   std::string name;
   std::vector<int32_t> fingers;
   std::vector<HandKey> keys;
+  KeyInterpolation interpolation = KeyInterpolation::linear;
   Vec3 centroid = Vec3::Zero();  // of where its fingers hold: their starts (hand_centroid_of_starts)
 };
 

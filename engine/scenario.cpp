@@ -4,6 +4,7 @@
 #include "engine/scenario.hpp"
 
 #include "systems/mesh/meshing.hpp"
+#include "systems/physics/fingers.hpp"
 #include "systems/tearing/tearing_step.hpp"
 
 #include <nlohmann/json.hpp>
@@ -368,7 +369,7 @@ void read_fingers(const Reader& r, const json& j, std::vector<FingerSpec>& finge
     const std::string p = child(path, i);
     const json& f = j[i];
     r.expect_object(f, p);
-    r.check_keys(f, p, {"name", "at", "keys", "attach", "release", "grip", "pad"});
+    r.check_keys(f, p, {"name", "at", "keys", "interpolation", "attach", "release", "grip", "pad"});
     FingerSpec spec;
     if (!f.contains("name")) fail(r.file, p, "missing name");
     spec.name = r.string(f["name"], child(p, "name"));
@@ -386,6 +387,7 @@ void read_fingers(const Reader& r, const json& j, std::vector<FingerSpec>& finge
         spec.keys.push_back(fk);
       }
     }
+    if (f.contains("interpolation")) spec.interpolation = r.string(f["interpolation"], child(p, "interpolation"));
     // A finger put on the sheet (or let go) during a session: a vertex is inserted at `at` then.
     if (f.contains("attach")) spec.attach = r.number(f["attach"], child(p, "attach"));
     if (f.contains("release")) spec.release = r.number(f["release"], child(p, "release"));
@@ -403,7 +405,7 @@ void read_hands(const Reader& r, const json& j, std::vector<HandSpec>& hands) {
     const std::string p = child(path, i);
     const json& h = j[i];
     r.expect_object(h, p);
-    r.check_keys(h, p, {"name", "fingers", "keys"});
+    r.check_keys(h, p, {"name", "fingers", "keys", "interpolation"});
     HandSpec spec;
     if (!h.contains("name")) fail(r.file, p, "missing name");
     spec.name = r.string(h["name"], child(p, "name"));
@@ -429,6 +431,7 @@ void read_hands(const Reader& r, const json& j, std::vector<HandSpec>& hands) {
         spec.keys.push_back(hk);
       }
     }
+    if (h.contains("interpolation")) spec.interpolation = r.string(h["interpolation"], child(p, "interpolation"));
     hands.push_back(std::move(spec));
   }
 }
@@ -622,6 +625,12 @@ void validate_key_times(const std::string& file, const std::string& keys_path, c
     if (k > 0 && !(times[k] > times[k - 1]))
       fail(file, p, "key times must increase (" + fmt(times[k]) + " after " + fmt(times[k - 1]) + ")");
   }
+}
+
+void validate_interpolation(const std::string& file, const std::string& path, const std::string& name) {
+  KeyInterpolation unused;
+  if (!key_interpolation_from_name(name, unused))
+    fail(file, path, "unknown interpolation \"" + name + "\" (linear or smooth)");
 }
 
 // True when the open rectangle lo < p < hi and the outline's interior overlap: an outline edge with a
@@ -824,6 +833,7 @@ void validate_fingers(const Scenario& s, const std::vector<Vec2>& outline) {
       check_vec(file, child(child(child(p, "keys"), k), size_t(1)), f.keys[k].position.data(), 3, kMaxCoordinate);
     }
     validate_key_times(file, child(p, "keys"), times);
+    validate_interpolation(file, child(p, "interpolation"), f.interpolation);
     if (!std::isfinite(f.attach) || f.attach < 0) fail(file, child(p, "attach"), "must be a time ≥ 0");
     if (!(f.release > f.attach)) fail(file, child(p, "release"), "must come after attach");
     check_positive(file, child(p, "grip"), f.grip);
@@ -865,6 +875,7 @@ void validate_hands(const Scenario& s) {
       if (!(key.axis.cwiseAbs().maxCoeff() > 0)) fail(file, child(kp, "axis"), "rotation axis must be non-zero");
     }
     validate_key_times(file, child(p, "keys"), times);
+    validate_interpolation(file, child(p, "interpolation"), h.interpolation);
   }
 }
 

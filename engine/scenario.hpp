@@ -81,6 +81,7 @@ struct FingerSpec {
   std::string name;
   Vec2 at = Vec2::Zero();
   std::vector<FingerKey> keys;
+  std::string interpolation = "linear";  // how the keys are joined: "linear" or "smooth" (key_interpolation_from_name)
   double attach = 0;         // s: put on the sheet then (0: from the start, a mesh vertex is placed at `at`)
   double release = 1e300;    // s: let go then
   double grip = 15;          // N: the largest force the pinch holds before the paper slides through it
@@ -91,6 +92,7 @@ struct HandSpec {
   std::string name;
   std::vector<std::string> fingers;
   std::vector<HandKey> keys;
+  std::string interpolation = "linear";  // as for a finger
 };
 
 struct Scenario {

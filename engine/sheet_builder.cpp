@@ -109,6 +109,7 @@ Sheet build_sheet(const Scenario& scenario) {
     f.uv = spec.at;
     f.vertex = required_of[i] >= 0 ? required_vertex[required_of[i]] : -1;
     f.keys = spec.keys;
+    key_interpolation_from_name(spec.interpolation, f.interpolation);  // validated
     f.attach_time = spec.attach;
     f.release_time = spec.release;
     f.grip = spec.grip;
@@ -122,6 +123,7 @@ Sheet build_sheet(const Scenario& scenario) {
     Hand h;
     h.name = spec.name;
     h.keys = spec.keys;
+    key_interpolation_from_name(spec.interpolation, h.interpolation);  // validated
     for (const std::string& name : spec.fingers)
       for (size_t i = 0; i < sheet.fingers.size(); ++i)
         if (sheet.fingers[i].name == name) {

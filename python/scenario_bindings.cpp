@@ -77,6 +77,7 @@ json scenario_document(const pt::Scenario& s) {
     json keys = json::array();
     for (const pt::FingerKey& k : f.keys) keys.push_back(json::array({k.t, vec(k.position)}));
     json finger = {{"name", f.name}, {"at", vec(f.at)}, {"keys", keys}, {"attach", f.attach}};
+    if (f.interpolation != pt::FingerSpec{}.interpolation) finger["interpolation"] = f.interpolation;
     if (f.release != pt::FingerSpec{}.release) finger["release"] = f.release;  // default: never
     finger["grip"] = f.grip;
     if (f.pad > 0) finger["pad"] = f.pad;  // default: a point
@@ -90,7 +91,9 @@ json scenario_document(const pt::Scenario& s) {
       for (const pt::HandKey& k : h.keys)
         keys.push_back(json::array(
             {k.t, {{"translate", vec(k.translate)}, {"rotate_deg", k.rotate_deg}, {"axis", vec(k.axis)}}}));
-      hands.push_back({{"name", h.name}, {"fingers", h.fingers}, {"keys", keys}});
+      json hand = {{"name", h.name}, {"fingers", h.fingers}, {"keys", keys}};
+      if (h.interpolation != pt::HandSpec{}.interpolation) hand["interpolation"] = h.interpolation;
+      hands.push_back(hand);
     }
     doc["hands"] = hands;
   }
@@ -475,13 +478,14 @@ void bind_scenario(py::module_& m) {
       "sim.self_contact: False (off), True (the defaults) or {\"gap\": m, \"friction\": mu}; reads False or the settings.");
   c.def_property_readonly(
       "fingers", [](const pt::Scenario& s) { return python_from_json(scenario_document(s)["fingers"]); },
-      "The fingers as the file has them: name, at, keys, attach, release (absent: never), grip, pad (absent: 0).");
+      "The fingers as the file has them: name, at, keys, interpolation (absent: linear), attach, release (absent: "
+      "never), grip, pad (absent: 0).");
   c.def(
       "add_finger",
       [](pt::Scenario& s, py::handle name, py::handle at, py::handle keys, py::handle attach, py::handle release,
-         py::handle grip, py::handle pad) {
+         py::handle grip, py::handle pad, py::handle interpolation) {
         py::dict finger("name"_a = name, "at"_a = at, "keys"_a = keys, "attach"_a = attach, "grip"_a = grip,
-                        "pad"_a = pad);
+                        "pad"_a = pad, "interpolation"_a = interpolation);
         if (!release.is_none()) finger["release"] = release;
         json doc = scenario_document(s);
         const std::string path = child("fingers", doc["fingers"].size());
@@ -489,9 +493,9 @@ void bind_scenario(py::module_& m) {
         s = read_document(doc, s.path);
       },
       "name"_a, "at"_a, "keys"_a = py::list(), "attach"_a = 0.0, "release"_a = py::none(), "grip"_a = 15.0,
-      "pad"_a = 0.0,
+      "pad"_a = 0.0, "interpolation"_a = "linear",
       "Add a finger holding pattern point at = (u, v) (a disc of radius pad, m, if pad > 0); keys [(t, (x, y, "
-      "z)), ...]; InputError as in a file.");
+      "z)), ...] joined \"linear\" or \"smooth\"; InputError as in a file.");
   c.def(
       "remove_finger",
       [](pt::Scenario& s, py::handle finger) {

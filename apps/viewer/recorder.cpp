@@ -1,6 +1,7 @@
 #include "apps/viewer/recorder.hpp"
 
 #include "engine/simulation_internals.hpp"
+#include "systems/physics/fingers.hpp"
 
 #include <cmath>
 #include <filesystem>
@@ -78,6 +79,7 @@ json session_json(const Simulation& sim, const std::string& name) {
     json keys = json::array();
     for (const FingerKey& k : f.keys) keys.push_back(json::array({k.t, vec(k.position)}));
     jf["keys"] = keys;
+    if (f.interpolation != KeyInterpolation::linear) jf["interpolation"] = key_interpolation_name(f.interpolation);
     // Fingers of the scenario are on the sheet from the start (attach_time 0, a mesh vertex from the
     // meshing); fingers put on during the session are inserted at their attach time.
     if (!in_scenario(sc, f.name) || f.attach_time > 0) jf["attach"] = f.attach_time;
@@ -95,7 +97,9 @@ json session_json(const Simulation& sim, const std::string& name) {
       for (const HandKey& k : h.keys)
         keys.push_back(json::array(
             {k.t, {{"translate", vec(k.translate)}, {"rotate_deg", k.rotate_deg}, {"axis", vec(k.axis)}}}));
-      hands.push_back({{"name", h.name}, {"fingers", h.fingers}, {"keys", keys}});
+      json jh = {{"name", h.name}, {"fingers", h.fingers}, {"keys", keys}};
+      if (h.interpolation != HandSpec{}.interpolation) jh["interpolation"] = h.interpolation;
+      hands.push_back(jh);
     }
     j["hands"] = hands;
   }

@@ -11,18 +11,68 @@
 
 namespace pt {
 
+namespace {
+
+template <int N>
+using KeyValue = Eigen::Matrix<double, N, 1>;
+
+// The slope (per second) of "smooth" keys at key j, each component on its own: zero at the first and last
+// key (the motion starts and ends at rest) and where the keys turn back or hold (a local extremum stays
+// one); elsewhere the weighted harmonic mean of the two secants (Fritsch & Butland 1984, as in pchip),
+// which keeps each interval monotone, so the curve never leaves the range of its two keys.
+template <int N, class Time, class Value>
+KeyValue<N> smooth_key_slope(size_t count, const Time& time, const Value& value, size_t j) {
+  KeyValue<N> slope = KeyValue<N>::Zero();
+  if (j == 0 || j + 1 >= count) return slope;
+  const double h0 = time(j) - time(j - 1), h1 = time(j + 1) - time(j);
+  if (!(h0 > 0) || !(h1 > 0)) return slope;
+  const KeyValue<N> d0 = (value(j) - value(j - 1)) / h0, d1 = (value(j + 1) - value(j)) / h1;
+  for (int c = 0; c < N; ++c)
+    if (d0[c] * d1[c] > 0) slope[c] = 3 * (h0 + h1) / ((2 * h1 + h0) / d0[c] + (h1 + 2 * h0) / d1[c]);
+  return slope;
+}
+
+// Keys (time(k), value(k)), 0 < count, joined at time t and held before the first and after the last;
+// *interval, if asked, is the key being moved towards (the first before it, the last after it).
+// "linear": constant speed from key to key. "smooth": the cubic Hermite curve through the keys with the
+// slopes above: its velocity is continuous, so a hand neither starts, stops nor turns at once (an
+// instant stop of a moving hand jerks the paper it holds: the sheet's momentum lands on the fingers).
+template <int N, class Time, class Value>
+KeyValue<N> interpolate_keys(size_t count, const Time& time, const Value& value, KeyInterpolation how, double t,
+                             size_t* interval = nullptr) {
+  size_t i = 1;
+  while (i < count && t >= time(i)) ++i;
+  if (interval) *interval = t <= time(0) ? 0 : std::min(i, count - 1);
+  if (t <= time(0)) return value(0);
+  if (i == count) return value(count - 1);
+  const double span = time(i) - time(i - 1);
+  const double a = span > 0 ? (t - time(i - 1)) / span : 1.0;
+  if (how == KeyInterpolation::linear || !(span > 0)) return (1 - a) * value(i - 1) + a * value(i);
+  const KeyValue<N> m0 = smooth_key_slope<N>(count, time, value, i - 1);
+  const KeyValue<N> m1 = smooth_key_slope<N>(count, time, value, i);
+  const double a2 = a * a, a3 = a2 * a;
+  // The Hermite basis written from the first key, so that two equal keys hold exactly.
+  return value(i - 1) + (3 * a2 - 2 * a3) * (value(i) - value(i - 1)) + span * ((a3 - 2 * a2 + a) * m0 + (a3 - a2) * m1);
+}
+
+}  // namespace
+
+bool key_interpolation_from_name(std::string_view name, KeyInterpolation& out) {
+  if (name == "linear") out = KeyInterpolation::linear;
+  else if (name == "smooth") out = KeyInterpolation::smooth;
+  else return false;
+  return true;
+}
+
+const char* key_interpolation_name(KeyInterpolation how) {
+  return how == KeyInterpolation::smooth ? "smooth" : "linear";
+}
+
 Vec3 finger_key_position(const Finger& finger, double t) {
   const auto& k = finger.keys;
   if (k.empty()) return finger.start;
-  if (t <= k.front().t) return k.front().position;
-  if (t >= k.back().t) return k.back().position;
-  for (size_t i = 1; i < k.size(); ++i)
-    if (t < k[i].t) {
-      const double span = k[i].t - k[i - 1].t;
-      const double a = span > 0 ? (t - k[i - 1].t) / span : 1.0;
-      return (1 - a) * k[i - 1].position + a * k[i].position;
-    }
-  return k.back().position;
+  return interpolate_keys<3>(
+      k.size(), [&](size_t j) { return k[j].t; }, [&](size_t j) { return k[j].position; }, finger.interpolation, t);
 }
 
 namespace {
@@ -36,15 +86,17 @@ struct HandPose {
 
 HandPose hand_pose(const Hand& hand, double t) {
   const auto& k = hand.keys;
-  if (t <= k.front().t) return {k.front().translate, k.front().rotate_deg, k.front().axis};
-  if (t >= k.back().t) return {k.back().translate, k.back().rotate_deg, k.back().axis};
-  size_t i = 1;
-  while (i < k.size() && t >= k[i].t) ++i;
-  const double span = k[i].t - k[i - 1].t;
-  const double a = span > 0 ? (t - k[i - 1].t) / span : 1.0;
+  // The translation and the angle, joined as one 4-vector (each component on its own).
+  const auto pose = [&](size_t j) {
+    KeyValue<4> v;
+    v << k[j].translate, k[j].rotate_deg;
+    return v;
+  };
+  size_t towards = 0;
+  const KeyValue<4> v =
+      interpolate_keys<4>(k.size(), [&](size_t j) { return k[j].t; }, pose, hand.interpolation, t, &towards);
   // The axis of the key being moved towards: a hand turns about one axis per interval.
-  return {(1 - a) * k[i - 1].translate + a * k[i].translate, (1 - a) * k[i - 1].rotate_deg + a * k[i].rotate_deg,
-          k[i].axis};
+  return {v.head<3>(), v[3], k[towards].axis};
 }
 
 Mat3 rotation_of(const HandPose& pose) {

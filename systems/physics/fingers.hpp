@@ -1,11 +1,17 @@
 // Finger targets at time t (docs/scenario-format.md, "fingers" / "hands"): a finger follows its own keys
-// (linear in time, held before the first and after the last key), then its hand moves it rigidly: rotation
+// (joined as its "interpolation" says, held before the first and after the last key), then its hand moves it rigidly: rotation
 // about the centroid of where the hand's fingers hold (hand_centroid_of_starts), then translation, both interpolated between the hand's keys.
 #pragma once
 
 #include "components/sheet.hpp"
 
+#include <string_view>
+
 namespace pt {
+
+// The interpolation called `name` ("linear" or "smooth"); false, out unchanged, for another name.
+bool key_interpolation_from_name(std::string_view name, KeyInterpolation& out);
+const char* key_interpolation_name(KeyInterpolation how);
 
 // Position of a finger's own keys at time t (its start position when it has no keys).
 Vec3 finger_key_position(const Finger& finger, double t);

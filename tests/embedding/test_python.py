@@ -414,7 +414,10 @@ class ScenarioInCode(unittest.TestCase):
         sc.detail.sigma, sc.detail.omega = 2e-3, 0.25
         sc.add_finger("L", (0.05, 0.2), keys=[(0.0, (0.05, 0.2, 0.0)), (0.4, (0.0, 0.2, 0.05))])
         sc.add_finger("R", (0.1, 0.2), keys=[(0.0, (0.1, 0.2, 0.0)), (0.4, (0.15, 0.2, 0.05))], grip=20.0,
-                      pad=0.005)
+                      pad=0.005, interpolation="smooth")
+        with self.assertRaises(papertear.InputError) as err:
+            sc.add_finger("S", (0.12, 0.2), interpolation="cubic")
+        self.assertIn("fingers[2].interpolation: unknown interpolation \"cubic\"", str(err.exception))
         sc.finger("L").grip = 12.0
         d = sc.to_dict()
         self.assertEqual(d["sheet"], {"preset": "A5", "triangles": 200, "mesh_seed": 3, "mesh_rotation_deg": 0.0,
@@ -424,6 +427,7 @@ class ScenarioInCode(unittest.TestCase):
         self.assertEqual((d["detail"]["sigma"], d["detail"]["omega"], d["tearing"]["radius"]), (2e-3, 0.25, 0.05))
         self.assertEqual([f["grip"] for f in sc.fingers], [12.0, 20.0])
         self.assertEqual([f.get("pad") for f in sc.fingers], [None, 0.005])
+        self.assertEqual([f.get("interpolation") for f in sc.fingers], [None, "smooth"])
         self.assertEqual(sc.material.young, 5e9)
         self.assertEqual(sc.get("fingers[1].name"), "R")
         with self.assertRaises(AttributeError):

@@ -213,6 +213,8 @@ const BadCase kBadCases[] = {
     {"unknown_key", "sheet.outlin: unknown key"},
     {"unknown_key_top", "fingerz: unknown key"},
     {"unknown_key_hand", "hands[0].keys[0][1].rotate: unknown key"},
+    {"unknown_interpolation", "hands[0].interpolation: unknown interpolation \"cubic\" (linear or smooth)"},
+    {"interpolation_wrong_type", "fingers[1].interpolation: expected a string"},
     {"wrong_type", "sheet.triangles: expected an integer, got a string"},
     {"wrong_type_key", "fingers[1].keys[0][1]: expected an array of 3 numbers, got a string"},
     {"wrong_type_name", "name: expected a string, got a number"},
