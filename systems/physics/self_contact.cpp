@@ -1,5 +1,6 @@
 #include "systems/physics/self_contact.hpp"
 
+#include "systems/common/pattern_geometry.hpp"
 #include "systems/common/scoped_timer.hpp"
 
 #include <embree3/rtcore.h>
@@ -534,11 +535,31 @@ struct Pass {
   std::vector<double> times;
 
   // Triangles that share a corner, or a corner that is the same pattern point (a tear's twin vertices) or
-  // the same point at x0 (a tip's): neighbours in the sheet, whose touching is the mesh's own.
+  // the same point at x0 (a tip's), or that lie within the reach of a pair (two gaps) of each other in the
+  // pattern: neighbours in the sheet, whose nearness is the mesh's own. The last covers the small
+  // triangles a cut leaves where a tip advanced by a fraction of a millimetre: a lip's vertex there lies
+  // within the gap of triangles two rings away, on its own lip or the other, with no twin between them, and
+  // keeping them a gap apart in the solve stretched table-tear's lips 41% in a substep and threw the sheet
+  // apart (docs/physics.md, "Self-contact").
   bool adjacent(const Tri& s, const Tri& t) const {
     for (int32_t a : s)
       for (int32_t b : t)
         if (a == b || rest[a] == rest[b] || x0[a] == x0[b]) return true;
+    return near_in_pattern(s, t) || near_in_pattern(t, s);
+  }
+  // Whether a corner of s lies inside t in the pattern or within two gaps of one of its edges.
+  bool near_in_pattern(const Tri& s, const Tri& t) const {
+    const double reach2 = 4 * params.gap * params.gap;
+    const Vec2 &a = rest[t[0]], &b = rest[t[1]], &c = rest[t[2]];
+    const double orientation = cross(b - a, c - a);
+    for (int32_t i : s) {
+      const Vec2& p = rest[i];
+      const double u = cross(b - a, p - a), v = cross(c - b, p - b), w = cross(a - c, p - c);
+      if ((u >= 0 && v >= 0 && w >= 0 && orientation > 0) || (u <= 0 && v <= 0 && w <= 0 && orientation < 0)) return true;
+      if (point_segment_distance2(p, a, b) <= reach2 || point_segment_distance2(p, b, c) <= reach2 ||
+          point_segment_distance2(p, c, a) <= reach2)
+        return true;
+    }
     return false;
   }
 

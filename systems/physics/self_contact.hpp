@@ -26,7 +26,10 @@
 // reactions carry no contact force.
 // Excluded pairs: a vertex and a triangle it is a corner of, edges that share a vertex, and pairs with a
 // corner that is the same pattern point (Vertices::rest) or the same 3D point at x0 as one of the other's:
-// the two lips of a tear are duplicated vertices, coincident at its tip (as in systems/self_intersection.hpp).
+// the two lips of a tear are duplicated vertices, coincident at its tip (as in systems/self_intersection.hpp);
+// and triangles within two gaps of each other in the pattern (a corner inside the other or that near one of
+// its edges): the small triangles a cut leaves where a tip advanced by a fraction of a millimetre lie within
+// the gap of triangles two rings away, and no contact separates material that near.
 // Held vertices (fingers; the engine adds vertices resting on an obstacle) have infinite mass: their paths
 // are prescribed. An impulse whose free points carry almost none of the pair's weight is not applied (it
 // would fling them); the passes and zones deal with that pair.

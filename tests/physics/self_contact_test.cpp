@@ -174,6 +174,31 @@ TEST(SelfContactProximities, PairsAreOverTheOtherLayerWithTheFacesNormal) {
   }
 }
 
+// Small triangles a cut leaves near a tip: two triangles of the sheet that share no corner but lie within
+// two gaps of each other in the pattern are neighbours, however near in space; the same two triangles
+// 5 mm apart in the pattern are strangers and make pairs (the control). A 1 mm triangle and, 0.4 mm past
+// its long edge, a second one folded over it 0.1 mm above.
+TEST(SelfContactProximities, TrianglesWithinTwoGapsInThePatternAreNeighbours) {
+  SelfContactParams params;
+  params.gap = 3e-4;
+  const std::vector<Tri> tris{{0, 1, 2}, {3, 4, 5}};
+  const std::vector<Vec3> x{Vec3(0, 0, 0),           Vec3(1e-3, 0, 0),        Vec3(0, 1e-3, 0),
+                            Vec3(2e-4, 2e-4, 1e-4), Vec3(6e-4, 2e-4, 1e-4), Vec3(2e-4, 6e-4, 1e-4)};
+  for (const double apart : {4e-4, 5e-3}) {
+    const Vec2 past = apart * Vec2(1, 1).normalized();  // beyond the edge from (1, 0) mm to (0, 1) mm
+    const std::vector<Vec2> rest{Vec2(0, 0),        Vec2(1e-3, 0),           Vec2(0, 1e-3),
+                                 Vec2(5e-4, 5e-4) + past, Vec2(1e-3, 1e-3) + past, Vec2(5e-4, 1e-3) + past};
+    SelfContactBroadPhasePtr broad;
+    std::vector<ProximityPair> pairs;
+    self_contact_proximities(params, tris, rest, x, x, broad, pairs);
+    if (apart < 2 * params.gap) {
+      EXPECT_TRUE(pairs.empty()) << pairs.size() << " pairs between pattern neighbours";
+    } else {
+      EXPECT_FALSE(pairs.empty()) << "strangers 0.1 mm apart in space";
+    }
+  }
+}
+
 TEST(SelfContact, PairImpulsesConserveMomentum) {
   TwoSheets s = two_sheets(10, 0.001, 0.01, 11);
   for (int32_t i = s.upper_first; i < static_cast<int32_t>(s.x.size()); ++i) s.v[i] = Vec3(0.3, -0.1, -2.0);
