@@ -545,6 +545,15 @@ struct Pass {
     for (int32_t a : s)
       for (int32_t b : t)
         if (a == b || rest[a] == rest[b] || x0[a] == x0[b]) return true;
+    // Most pairs are far apart in the pattern: their boxes there, grown by two gaps, are apart.
+    const double reach = 2 * params.gap;
+    for (int k = 0; k < 2; ++k) {
+      const double s_lo = std::min({rest[s[0]][k], rest[s[1]][k], rest[s[2]][k]});
+      const double s_hi = std::max({rest[s[0]][k], rest[s[1]][k], rest[s[2]][k]});
+      const double t_lo = std::min({rest[t[0]][k], rest[t[1]][k], rest[t[2]][k]});
+      const double t_hi = std::max({rest[t[0]][k], rest[t[1]][k], rest[t[2]][k]});
+      if (s_lo > t_hi + reach || t_lo > s_hi + reach) return false;
+    }
     return near_in_pattern(s, t) || near_in_pattern(t, s);
   }
   // Whether a corner of s lies inside t in the pattern or within two gaps of one of its edges.
