@@ -180,14 +180,6 @@ void update_finger_targets(double t, const std::vector<Hand>& hands, std::vector
 
 namespace {
 
-// Distance from p to the triangle abc (0 inside), pattern.
-double distance_to_triangle(const Vec2& p, const Vec2& a, const Vec2& b, const Vec2& c) {
-  const double s0 = cross(b - a, p - a), s1 = cross(c - b, p - b), s2 = cross(a - c, p - c);
-  if ((s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0)) return 0;
-  return std::sqrt(std::min({point_segment_distance2(p, a, b), point_segment_distance2(p, b, c),
-                             point_segment_distance2(p, c, a)}));
-}
-
 // Signed area of the intersection of the disc of radius r about the origin with the triangle (0, a, b):
 // the sector of the disc where the segment ab lies outside it, the triangle where inside.
 double disc_wedge_area(const Vec2& a, const Vec2& b, double r) {
@@ -233,7 +225,7 @@ void mark_pinched_triangles(const std::vector<Finger>& fingers, const std::vecto
       if (t < 0 || t >= nt || std::find(visited.begin(), visited.end(), t) != visited.end()) continue;
       visited.push_back(t);
       const Vec2 &a = rest[tri[t][0]], &b = rest[tri[t][1]], &c = rest[tri[t][2]];
-      if (distance_to_triangle(centre, a, b, c) >= r) continue;
+      if (point_triangle_distance(centre, a, b, c) >= r) continue;
       pinched[t] = std::max(pinched[t], fraction_within(centre, r, a, b, c));
       for (const int32_t n : topo.neighbor[t]) stack.push_back(n);
     }

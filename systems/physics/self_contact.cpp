@@ -558,17 +558,8 @@ struct Pass {
   }
   // Whether a corner of s lies inside t in the pattern or within two gaps of one of its edges.
   bool near_in_pattern(const Tri& s, const Tri& t) const {
-    const double reach2 = 4 * params.gap * params.gap;
-    const Vec2 &a = rest[t[0]], &b = rest[t[1]], &c = rest[t[2]];
-    const double orientation = cross(b - a, c - a);
-    for (int32_t i : s) {
-      const Vec2& p = rest[i];
-      const double u = cross(b - a, p - a), v = cross(c - b, p - b), w = cross(a - c, p - c);
-      if ((u >= 0 && v >= 0 && w >= 0 && orientation > 0) || (u <= 0 && v <= 0 && w <= 0 && orientation < 0)) return true;
-      if (point_segment_distance2(p, a, b) <= reach2 || point_segment_distance2(p, b, c) <= reach2 ||
-          point_segment_distance2(p, c, a) <= reach2)
-        return true;
-    }
+    for (int32_t i : s)
+      if (point_triangle_distance(rest[i], rest[t[0]], rest[t[1]], rest[t[2]]) <= 2 * params.gap) return true;
     return false;
   }
 
