@@ -314,8 +314,8 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::
   result["pieces"] = std::move(pieces);
 
   // The work of the implicit integrator: symbolic analyses
-  // (after cuts or a change of the held set), numeric factorisations, spin-brake redos, solves that needed a
-  // diagonal shift, and rejected substeps.
+  // (after cuts or a change of the held set), numeric factorisations, spin-brake redos, substeps redone as
+  // two halves, solves that needed a diagonal shift, and rejected substeps.
   if (const SelfContactStats* c = self_contact_stats(sim))
     result["self_contact"] = ojson{{"proximities", c->proximities}, {"repulsions", c->repulsions},
                                    {"collisions", c->collisions},   {"zones", c->zones},
@@ -325,6 +325,7 @@ bool build_result_json(const Simulation& sim, nlohmann::ordered_json& out, std::
   result["solver"] = ojson{{"analyses", solver.analyses},
                            {"factorizations", solver.factorizations},
                            {"brakes", solver.brakes},
+                           {"splits", solver.splits},
                            {"regularised", solver.regularised},
                            {"failures", solver.failures},
                            {"remeshes", sim.remesh_count()}};

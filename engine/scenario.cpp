@@ -29,6 +29,7 @@ constexpr int64_t kMinTriangles = 2;
 constexpr int64_t kMaxTriangles = 2'000'000;
 constexpr int64_t kMaxFrames = 10'000'000;
 constexpr int64_t kMaxSubsteps = 10'000;
+constexpr int64_t kMaxStepSplits = 8;  // a substep halved 8 times is 1/256 of it: past that the step is not the problem
 constexpr int64_t kMaxIterations = 1'000;
 constexpr int64_t kMaxTexture = 16'384;
 constexpr double kMaxFps = 100'000;
@@ -313,7 +314,7 @@ void read_sim(const Reader& r, const json& j, SimSettings& sim) {
   r.expect_object(j, path);
   r.check_keys(j, path,
                {"fps", "substeps", "frames", "gravity", "iterations", "solver", "relaxation", "relaxation_radius",
-                "self_contact"});
+                "self_contact", "step_splits", "split_strain_jump"});
   if (j.contains("fps")) sim.fps = r.number(j["fps"], child(path, "fps"));
   if (j.contains("substeps"))
     sim.substeps = static_cast<int32_t>(r.integer(j["substeps"], child(path, "substeps"), 1, kMaxSubsteps));
@@ -326,6 +327,10 @@ void read_sim(const Reader& r, const json& j, SimSettings& sim) {
   if (j.contains("relaxation")) sim.relaxation = r.string(j["relaxation"], child(path, "relaxation"));
   if (j.contains("relaxation_radius"))
     sim.relaxation_radius = r.number(j["relaxation_radius"], child(path, "relaxation_radius"));
+  if (j.contains("step_splits"))
+    sim.step_splits = static_cast<int32_t>(r.integer(j["step_splits"], child(path, "step_splits"), 0, kMaxStepSplits));
+  if (j.contains("split_strain_jump"))
+    sim.split_strain_jump = r.number(j["split_strain_jump"], child(path, "split_strain_jump"));
   if (j.contains("self_contact")) {
     // true (the defaults), false (off), or {"gap", "friction"} (on).
     const std::string p = child(path, "self_contact");
@@ -761,6 +766,9 @@ void validate_sim(const Scenario& s) {
   check_int(file, "sim.substeps", s.sim.substeps, 1, kMaxSubsteps);
   check_int(file, "sim.frames", s.sim.frames, 1, kMaxFrames);
   check_int(file, "sim.iterations", s.sim.iterations, 1, kMaxIterations);
+  check_int(file, "sim.step_splits", s.sim.step_splits, 0, kMaxStepSplits);
+  check_positive(file, "sim.split_strain_jump", s.sim.split_strain_jump);
+  check_range(file, "sim.split_strain_jump", s.sim.split_strain_jump, 0, 1, false);
   check_vec(file, "sim.gravity", s.sim.gravity.data(), 3, kMaxGravity);
   // Projective dynamics was measured out (docs/architecture.md "Physics"): a file that asks for it is refused
   // by name rather than run with the other solver.

@@ -75,6 +75,11 @@ struct SimSettings {
   std::string relaxation = "substep";
   double relaxation_radius = 0.03;  // m, pattern: the patch of "patch"
   SelfContactSettings self_contact;
+  // Step splitting (systems/physics/integrate_implicit.hpp): a substep that stretched a triangle past the
+  // strain limit by more than split_strain_jump beyond its start is redone as two halves, at most
+  // step_splits halvings deep (0: off).
+  int32_t step_splits = 3;
+  double split_strain_jump = 0.0025;
 };
 
 struct FingerSpec {

@@ -182,6 +182,8 @@ struct Simulation::Impl {
     implicit_params.dt = 1.0 / (scenario.sim.fps * scenario.sim.substeps);
     implicit_params.gravity = scenario.sim.gravity;
     implicit_params.mass_damping = m.damping;
+    implicit_params.max_splits = scenario.sim.step_splits;
+    implicit_params.split_strain_jump = scenario.sim.split_strain_jump;
     implicit_params.grain = options.parallel_grain;
     implicit_params.run = [this](int32_t count, int32_t grain, const RangeTask& task) {
       run_ranges(count, grain, task);

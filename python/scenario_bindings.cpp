@@ -62,7 +62,9 @@ json scenario_document(const pt::Scenario& s) {
                 {"iterations", s.sim.iterations},
                 {"solver", s.sim.solver},
                 {"relaxation", s.sim.relaxation},
-                {"relaxation_radius", s.sim.relaxation_radius}};
+                {"relaxation_radius", s.sim.relaxation_radius},
+                {"step_splits", s.sim.step_splits},
+                {"split_strain_jump", s.sim.split_strain_jump}};
   if (s.sim.self_contact.on)
     doc["sim"]["self_contact"] = {{"gap", s.sim.self_contact.gap}, {"friction", s.sim.self_contact.friction}};
   const pt::TearingSettings& t = s.tearing;
@@ -468,6 +470,10 @@ void bind_scenario(py::module_& m) {
            "sim.relaxation: \"substep\", \"next_frame\" or \"patch\".");
   property(c, "relaxation_radius", "sim.relaxation_radius", [](const pt::Scenario& s) { return s.sim.relaxation_radius; },
            "sim.relaxation_radius, m");
+  property(c, "step_splits", "sim.step_splits", [](const pt::Scenario& s) { return s.sim.step_splits; },
+           "sim.step_splits: how many times a substep that jumped past the strain limit may be halved (0: off).");
+  property(c, "split_strain_jump", "sim.split_strain_jump", [](const pt::Scenario& s) { return s.sim.split_strain_jump; },
+           "sim.split_strain_jump: the strain a substep may add past the strain limit before it is split.");
   c.def_property(
       "self_contact",
       [](const pt::Scenario& s) -> py::object {

@@ -69,7 +69,9 @@ json session_json(const Simulation& sim, const std::string& name) {
               {"iterations", sc.sim.iterations},
               {"solver", sc.sim.solver},
               {"relaxation", sc.sim.relaxation},
-              {"relaxation_radius", sc.sim.relaxation_radius}};
+              {"relaxation_radius", sc.sim.relaxation_radius},
+              {"step_splits", sc.sim.step_splits},
+              {"split_strain_jump", sc.sim.split_strain_jump}};
   j["tearing"] = {{"direction", sc.tearing.direction}, {"radius", sc.tearing.radius}};
   if (sc.tearing.snap) j["tearing"]["snap"] = *sc.tearing.snap;
 

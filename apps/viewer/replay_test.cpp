@@ -103,10 +103,11 @@ TEST(ViewerReplay, RecordedSessionReplaysToTheSameTears) {
 }
 
 // The recorder keeps the scenario's own fingers and hands and its settings (here a session started with
-// --set sim.relaxation=patch), and its output loads strictly.
+// --set sim.relaxation=patch and other step settings), and its output loads strictly.
 TEST(ViewerReplay, ScenarioFingersRoundTrip) {
   const Scenario base = load_scenario(std::string(PT_SOURCE_DIR) + "/scenarios/fig14-straight.json",
-                                      {"sim.relaxation=patch", "sim.relaxation_radius=0.04"});
+                                      {"sim.relaxation=patch", "sim.relaxation_radius=0.04",
+                                       "sim.step_splits=2", "sim.split_strain_jump=0.005"});
   Simulation live(base);
   for (int f = 0; f < 20; ++f) live.step();
   const std::string path = out_dir() + "/scripted.json";
@@ -114,6 +115,8 @@ TEST(ViewerReplay, ScenarioFingersRoundTrip) {
   const Scenario back = load_scenario(path);
   EXPECT_EQ(back.sim.relaxation, "patch");
   EXPECT_EQ(back.sim.relaxation_radius, 0.04);
+  EXPECT_EQ(back.sim.step_splits, 2);
+  EXPECT_EQ(back.sim.split_strain_jump, 0.005);
   ASSERT_EQ(back.fingers.size(), base.fingers.size());
   for (size_t i = 0; i < base.fingers.size(); ++i) {
     EXPECT_EQ(back.fingers[i].name, base.fingers[i].name);

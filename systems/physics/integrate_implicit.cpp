@@ -58,6 +58,13 @@ struct ImplicitSolver {
   std::vector<HeldCoupling> bending_held;          // rhs[row] −= weight · v⁺[held_vertex], in stencil order
   std::vector<Mat3> base_values;                   // M(1 + hα) + (h² + hβ) Q, per block
   BlockLdlt ldlt;
+  // Per halving depth, the state a split step started from and its forces (implicit_substep).
+  struct SplitStart {
+    std::vector<Vec3> x, v, force;
+    std::vector<std::array<Vec3, 3>> corner_force;
+    std::vector<Vec3> half_target;
+  };
+  std::vector<SplitStart> split_starts;
   std::vector<std::pair<int32_t, int32_t>> analysed_keys;  // the keys and positions ldlt was analysed for
   std::vector<Vec2> analysed_rest;
   bool analysed = false;
@@ -128,6 +135,16 @@ Mat2 tensile_part(const Mat2& stress) {
 void ImplicitSolverDeleter::operator()(ImplicitSolver* s) const { delete s; }
 const ImplicitStats& implicit_solver_stats(const ImplicitSolver& solver) { return solver.stats; }
 
+namespace {
+size_t split_start_bytes(const std::vector<ImplicitSolver::SplitStart>& starts) {
+  size_t bytes = capacity_bytes(starts);
+  for (const ImplicitSolver::SplitStart& st : starts)
+    bytes += capacity_bytes(st.x) + capacity_bytes(st.v) + capacity_bytes(st.force) +
+             capacity_bytes(st.corner_force) + capacity_bytes(st.half_target);
+  return bytes;
+}
+}  // namespace
+
 size_t implicit_solver_bytes(const ImplicitSolver& s) {
   return sizeof(ImplicitSolver) + capacity_bytes(s.held) + capacity_bytes(s.free_index) + capacity_bytes(s.block_key) +
          capacity_bytes(s.diagonal_key) + capacity_bytes(s.block_values) + capacity_bytes(s.tri_block) +
@@ -139,7 +156,8 @@ size_t implicit_solver_bytes(const ImplicitSolver& s) {
          static_cast<size_t>(s.rhs.size() + s.solution.size()) * sizeof(double) + capacity_bytes(s.velocity_next) +
          capacity_bytes(s.pair_row) + capacity_bytes(s.pair_column) +
          capacity_bytes(s.pair_key) + capacity_bytes(s.resting) + capacity_bytes(s.resting_of_row) + capacity_bytes(s.resting_prescribed) + capacity_bytes(s.constrained) + capacity_bytes(s.obstacle_of_vertex) +
-         capacity_bytes(s.unfiltered_values) + static_cast<size_t>(s.unfiltered_rhs.size()) * sizeof(double);
+         capacity_bytes(s.unfiltered_values) + static_cast<size_t>(s.unfiltered_rhs.size()) * sizeof(double) +
+         split_start_bytes(s.split_starts);
 }
 
 namespace {
@@ -876,8 +894,10 @@ bool friction_pushes(ImplicitSolver& s) {
 
 }  // namespace
 
-bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& held,
-                      const std::vector<Vec3>& held_target, ImplicitSolverPtr& solver, Sheet& sheet) {
+namespace {
+
+bool step_once(const ImplicitParams& params, const std::vector<int32_t>& held,
+               const std::vector<Vec3>& held_target, ImplicitSolverPtr& solver, Sheet& sheet) {
   Vertices& V = sheet.verts;
   Triangles& T = sheet.tris;
   const int32_t nv = V.size();
@@ -974,6 +994,66 @@ bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& 
   }
   for (size_t k = 0; k < held.size(); ++k) V.x[held[k]] = held_target[k];  // exact, no rounding drift
   return true;
+}
+
+// Whether some triangle ended the step stretched past the strain limit by more than `jump` beyond both the
+// limit and its strain at the step's start (`x_start`).
+bool strain_jumped(const ImplicitParams& params, const std::vector<Vec3>& x_start, const Sheet& sheet) {
+  const Triangles& T = sheet.tris;
+  const double limit = sheet.material.strain_limit, jump = params.split_strain_jump;
+  std::vector<uint8_t> jumped(T.size(), 0);  // per triangle, written by its range; reduced serially
+  params.run(T.size(), params.grain, [&](int32_t b, int32_t e) {
+    for (int32_t t = b; t < e; ++t) {
+      const double after = max_principal_strain(sheet.verts.x, T.tri, T.rest_inv, t, t + 1);
+      if (after <= limit + jump) continue;
+      const double before = max_principal_strain(x_start, T.tri, T.rest_inv, t, t + 1);
+      jumped[t] = after > std::max(limit, before) + jump;
+    }
+  });
+  return std::find(jumped.begin(), jumped.end(), 1) != jumped.end();
+}
+
+bool split_substep(const ImplicitParams& params, const std::vector<int32_t>& held,
+                   const std::vector<Vec3>& held_target, int32_t splits_left, ImplicitSolverPtr& solver,
+                   Sheet& sheet) {
+  if (splits_left <= 0 || !(params.split_strain_jump > 0)) return step_once(params, held, held_target, solver, sheet);
+  Vertices& V = sheet.verts;
+  if (!solver) solver.reset(new ImplicitSolver);
+  std::vector<ImplicitSolver::SplitStart>& starts = solver->split_starts;
+  if (starts.size() < static_cast<size_t>(splits_left)) starts.resize(splits_left);
+  ImplicitSolver::SplitStart& start = starts[splits_left - 1];
+  start.x = V.x;
+  start.v = V.v;
+  if (!step_once(params, held, held_target, solver, sheet)) return false;
+  if (!strain_jumped(params, start.x, sheet)) return true;
+  // Redo as two halves; the substep's forces stay those of the state it started from (the fingers'
+  // reactions during it), which the whole step just computed.
+  solver->stats.splits += 1;
+  start.force = V.force;
+  start.corner_force = sheet.tris.corner_force;
+  V.x = start.x;
+  V.v = start.v;
+  ImplicitParams half = params;
+  half.dt = 0.5 * params.dt;
+  start.half_target.resize(held.size());
+  for (size_t k = 0; k < held.size(); ++k) start.half_target[k] = 0.5 * (start.x[held[k]] + held_target[k]);
+  // The halves use the slots below this one (`starts` does not grow in them: `start` stays valid).
+  const bool stepped = split_substep(half, held, start.half_target, splits_left - 1, solver, sheet) &&
+                       split_substep(half, held, held_target, splits_left - 1, solver, sheet);
+  if (!stepped) {
+    V.x = start.x;
+    V.v = start.v;
+  }
+  V.force = start.force;
+  sheet.tris.corner_force = start.corner_force;
+  return stepped;
+}
+
+}  // namespace
+
+bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& held,
+                      const std::vector<Vec3>& held_target, ImplicitSolverPtr& solver, Sheet& sheet) {
+  return split_substep(params, held, held_target, params.max_splits, solver, sheet);
 }
 
 }  // namespace pt

@@ -73,6 +73,13 @@ struct ImplicitParams {
   // Coulomb μ between a pair's vertex and its triangle, in the solve as on an obstacle, on the velocity
   // relative to the triangle's point: a pair sticks (moves with that point) or slides against it.
   double self_friction = 0;
+  // Step splitting (docs/physics.md, "Step splitting"): a step after which a triangle's largest principal
+  // strain exceeds both the material's strain limit and its own strain at the step's start by more than
+  // `split_strain_jump` is redone as two steps of half the length, at most `max_splits` halvings deep.
+  // The linear step stretches what it rotates by θ²/2: lips springing open after a cut rotate fast, and
+  // half the step leaves a quarter of that stretch. 0 splits: the step as it was.
+  double split_strain_jump = 0.0025;
+  int32_t max_splits = 3;
 };
 
 struct ImplicitSolver;
@@ -92,6 +99,7 @@ struct ImplicitStats {
   int64_t arrivals = 0;        // vertices landing on an obstacle, constrained to its surface in a second solve
   int64_t releases = 0;        // resting vertices released because their support would pull (the step solved again)
   int64_t friction_releases = 0;  // stickers set sliding because their support exceeded Coulomb's cap (solved again)
+  int64_t splits = 0;          // steps redone as two half steps (ImplicitParams::split_strain_jump)
   // Wall time in ms, summed over the solver's life, of its parts: the block structure after a topology or
   // held-set change (pairs, keys, constant values, destinations; the analysis excluded), the symbolic
   // analyses, the assembly of matrix values and right-hand side, the numeric factorisations and the
@@ -105,9 +113,10 @@ const ImplicitStats& implicit_solver_stats(const ImplicitSolver& solver);
 // Heap bytes the solver keeps between substeps (structure, matrix values, factor, scratch), capacity based.
 size_t implicit_solver_bytes(const ImplicitSolver& solver);
 
-// One substep. `held[i]` is prescribed to `held_target[i]` at the end of the substep. The solver is
-// (re)built when the topology version, the held set, the material or dt changed. Writes x, v and the
-// membrane corner forces of the state the step started from. Returns false and leaves x, v unchanged if
+// One substep. `held[i]` is prescribed to `held_target[i]` at the end of the substep, along a straight
+// line (a split step's halves meet at its midpoint). The solver is (re)built when the topology version,
+// the held set, the material or dt changed. Writes x, v and the membrane corner forces of the state the
+// step started from. Returns false and leaves x, v unchanged if
 // the factorisation failed or the result was not finite.
 bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& held,
                       const std::vector<Vec3>& held_target, ImplicitSolverPtr& solver, Sheet& sheet);

@@ -93,6 +93,17 @@ class Bindings(unittest.TestCase):
         with self.assertRaises(papertear.InputError):
             papertear.load_scenario(SCENARIO, ["sim.relaxation_radius=-1"])
 
+    def test_step_splitting_settings(self):
+        sc = papertear.load_scenario(SCENARIO)
+        self.assertEqual((sc.step_splits, sc.split_strain_jump), (3, 0.0025))
+        sc.step_splits = 0
+        sc.split_strain_jump = 0.01
+        sc.validate()
+        self.assertEqual(papertear.load_scenario(SCENARIO, ["sim.step_splits=0"]).step_splits, 0)
+        with self.assertRaises(papertear.InputError):
+            sc.step_splits = 9
+        self.assertEqual(sc.step_splits, 0)
+
     def test_view_follows_stepping(self):
         sim = papertear.Simulation(SCENARIO, threads=2)
         x = sim.positions

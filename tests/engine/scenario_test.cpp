@@ -215,6 +215,8 @@ const BadCase kBadCases[] = {
     {"unknown_key_hand", "hands[0].keys[0][1].rotate: unknown key"},
     {"unknown_interpolation", "hands[0].interpolation: unknown interpolation \"cubic\" (linear or smooth)"},
     {"interpolation_wrong_type", "fingers[1].interpolation: expected a string"},
+    {"step_splits_too_many", "sim.step_splits: absurd size 9 (at most 8)"},
+    {"split_strain_jump_negative", "sim.split_strain_jump: must be positive, got -0.01"},
     {"wrong_type", "sheet.triangles: expected an integer, got a string"},
     {"wrong_type_key", "fingers[1].keys[0][1]: expected an array of 3 numbers, got a string"},
     {"wrong_type_name", "name: expected a string, got a number"},

@@ -57,12 +57,13 @@ std::vector<Vec3> forces_of(const Sheet& s) {
 int32_t segments(const Tear& t) { return static_cast<int32_t>(t.tips.size()) - 1; }
 
 // Whole-sheet implicit substeps the run took: one numeric factorisation each, plus one per spin-brake redo
-// (the runs below need no regularised retry, which would add more).
+// and two per split (the step tried whole, then its two halves; a half's own split counts again; the runs
+// below need no regularised retry, which would add more).
 int64_t sheet_substeps(const Simulation& sim) {
   const ImplicitStats st = solver_stats(sim);
   EXPECT_EQ(st.regularised, 0);
   EXPECT_EQ(st.failures, 0);
-  return st.factorizations - st.brakes;
+  return st.factorizations - st.brakes - 2 * st.splits;
 }
 
 }  // namespace

@@ -336,7 +336,9 @@ TEST(ContactScenario, PiecesOnTheFloorComeToRestAboveItAtOneAndTwoThreads) {
 // The same pieces on other meshes land where they fall and stay: on meshes 3 and 6 a landing vertex's
 // friction, taken from the motion of the solve before the last, pushed it instead of holding it, and the
 // membrane flung the piece metres along the floor (27-31 m/s) with triangles stretched 12-49% (friction_pushes,
-// systems/physics/integrate_implicit.cpp). Every vertex ends within 25 cm of where the sheet hung.
+// systems/physics/integrate_implicit.cpp). A piece falling 35 cm lands at 2.6 m/s; once one has landed no
+// vertex moves faster than 3 m/s, and every vertex ends within 30 cm of where the sheet hung (a piece
+// ~10 cm tall topples as it lands: on mesh 6 its far edge ends 17.8 cm out, 25.3 cm with split steps).
 TEST(ContactScenario, PiecesLandWhereTheyFallOnOtherMeshes) {
   for (const uint64_t seed : {3, 6}) {
     Scenario sc = load_scenario(std::string(PT_SOURCE_DIR) + "/scenarios/pieces-on-floor.json");
@@ -345,11 +347,21 @@ TEST(ContactScenario, PiecesLandWhereTheyFallOnOtherMeshes) {
     EngineOptions o;
     o.threads = 1;
     Simulation sim(sc, o);
-    for (int f = 0; f < sc.sim.frames; ++f) sim.step();
+    double floor_z = 0;
+    for (const Obstacle& ob : sc.obstacles) floor_z = ob.point.z();
+    bool landed = false;
+    double fastest_after_landing = 0;
+    for (int f = 0; f < sc.sim.frames; ++f) {
+      sim.step();
+      if (landed) fastest_after_landing = std::max(fastest_after_landing, max_speed(sim.sheet()));
+      for (const Vec3& x : sim.sheet().verts.x) landed = landed || x.z() < floor_z + 0.001;
+    }
+    ASSERT_TRUE(landed) << "seed " << seed;
+    EXPECT_LT(fastest_after_landing, 3.0) << "seed " << seed;
     const Sheet& s = sim.sheet();
     EXPECT_LT(max_speed(s), 0.02) << "seed " << seed << ": at rest";
     for (const Vec3& x : s.verts.x)
-      ASSERT_LT(std::hypot(x.x() - 0.0525, x.y() - 0.074), 0.25) << "seed " << seed << ": " << x.transpose();
+      ASSERT_LT(std::hypot(x.x() - 0.0525, x.y() - 0.074), 0.30) << "seed " << seed << ": " << x.transpose();
     EXPECT_LT(sim.max_strain_beyond_tips(), 0.05) << "seed " << seed;
   }
 }
@@ -409,16 +421,18 @@ TEST(ContactScenario, AFoldedSheetLandsOnItselfWithoutPassingThrough) {
 }
 
 // An A5 sheet bent into a U by two hands and pulled apart with a twist (u-twist-pull.json) with self-contact
-// tears once, as without, stretches less than 5% and leaves no pair unresolved after the pass. Without the
+// tears as without, stretches less than 5% and leaves no pair unresolved after the pass. Without the
 // rounds that add the pairs a fast layer's last solve brings near (integrate_implicit.cpp,
-// kSelfPairRounds) it tore twice and stretched 7.2%. Its triangles intersect far less than without
-// self-contact (checked after every substep), but not never: 2 pairs in one substep of frame 86, near the
-// tear (docs/physics.md, "Self-contact", known gaps).
-TEST(ContactScenario, ATwistedPullWithSelfContactTearsOnce) {
+// kSelfPairRounds) it tore twice where it tore once without, and stretched 7.2%. (Since substeps that jump
+// past the strain limit are split, neither tears: the one tear came from such a substep's stretch,
+// docs/physics.md, "Step splitting".) Its triangles intersect far less than without self-contact (checked
+// after every substep), but not never (docs/physics.md, "Self-contact", known gaps).
+TEST(ContactScenario, ATwistedPullWithSelfContactTearsAsWithout) {
   Scenario sc = load_scenario(std::string(PT_SOURCE_DIR) + "/scenarios/u-twist-pull.json");
   EngineOptions o;
   o.threads = 2;
   int64_t intersecting[2] = {0, 0};
+  size_t tears[2] = {0, 0};
   for (const bool on : {false, true}) {
     sc.sim.self_contact.on = on;
     Simulation sim(sc, o);
@@ -426,11 +440,13 @@ TEST(ContactScenario, ATwistedPullWithSelfContactTearsOnce) {
       intersecting[on] = std::max(intersecting[on], count_self_intersections(s.verts.x, s.tris.tri).intersecting);
     });
     for (int f = 0; f < sc.sim.frames; ++f) sim.step();
+    tears[on] = sim.sheet().tears.size();
     if (!on) continue;
     EXPECT_EQ(self_contact_stats(sim)->unresolved, 0);
-    EXPECT_EQ(sim.sheet().tears.size(), 1u);
     EXPECT_LT(sim.max_strain(), 0.05);
   }
+  EXPECT_EQ(tears[1], tears[0]);
+  EXPECT_LE(tears[1], 1u);
   EXPECT_LT(4 * intersecting[1], intersecting[0]) << "with self-contact " << intersecting[1] << ", without "
                                                   << intersecting[0];
 }
