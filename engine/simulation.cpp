@@ -6,6 +6,7 @@
 
 #include "engine/sheet_builder.hpp"
 #include "engine/simulation_internals.hpp"
+#include "systems/common/pattern_geometry.hpp"
 #include "systems/physics/bending_forces.hpp"
 #include "systems/tearing/candidates.hpp"
 #include "systems/carving/carving.hpp"
@@ -158,7 +159,7 @@ struct Simulation::Impl {
   RegionSummary region_summary;
   TearingLog tearing_log;  // events, invariant violations and the count of cuts
   double max_strain = 0;              // largest principal in-plane strain at the end of any frame so far
-  double max_strain_beyond_tips = 0;  // the same over triangles beyond kTipZone of every active tear tip
+  double max_strain_beyond_tips = 0;  // the same over triangles beyond kTipZone of the tips (beyond_tips)
   std::vector<double> triangle_strain;  // per triangle, for it
 
   tbb::task_arena arena;
@@ -169,6 +170,8 @@ struct Simulation::Impl {
 
   Impl(const Scenario& s, const EngineOptions& o) : scenario(s), options(o), arena(std::max(1, o.threads)) {
     sheet = build_sheet(scenario);
+    for (int32_t v = 0; v < sheet.verts.size(); ++v)
+      if (sheet.verts.flags[v] & kInward) outline_corners.push_back(sheet.verts.rest[v]);
     fiber = make_fiber_field(scenario);
     const auto size = texture_size(scenario);
     detail.origin = fiber.origin;
@@ -563,15 +566,26 @@ struct Simulation::Impl {
   }
 
   // A crack tip's strain is singular in linear elasticity and, in paper, spread over a process zone of
-  // pulled-out fibres a few millimetres long: a triangle at the tip reads more the smaller it is. The
-  // sheet's own stretch is read beyond kTipZone of every active tip (rest centroid to tip, pattern).
+  // pulled-out fibres a few millimetres long: a triangle at the tip reads more the smaller it is, and a
+  // triangle that reaches into the zone averages the singular field however far its centroid is (on
+  // coarse meshes 10-17 mm triangles with a corner at the tip). So the sheet's own stretch is read on the
+  // triangles that come no nearer than kTipZone (pattern) to an active tip or to an inward corner of the
+  // outline that no tear has started from (a notch's end: a crack tip that has not moved yet).
   static constexpr double kTipZone = 0.005;  // m
+  static constexpr double kCornerTorn = 0.001;  // m: a tear started this near a corner started from it
+  std::vector<Vec2> outline_corners;  // the rest pattern's inward corners as built
   bool beyond_tips(int32_t t) const {
     const Tri& c = sheet.tris.tri[t];
     const std::vector<Vec2>& r = sheet.verts.rest;
-    const Vec2 centroid = (r[c[0]] + r[c[1]] + r[c[2]]) / 3.0;
+    auto near = [&](const Vec2& p) { return point_triangle_distance(p, r[c[0]], r[c[1]], r[c[2]]) < kTipZone; };
     for (const Tip& tip : sheet.tips)
-      if ((r[tip.vertex] - centroid).norm() < kTipZone) return false;
+      if (near(r[tip.vertex])) return false;
+    for (const Vec2& corner : outline_corners) {
+      if (!near(corner)) continue;
+      bool torn = false;
+      for (const Tear& tear : sheet.tears) torn = torn || (tear.start_uv - corner).norm() < kCornerTorn;
+      if (!torn) return false;
+    }
     return true;
   }
 

@@ -11,7 +11,8 @@ density (sheet.mesh_seed 0..N-1, the meshing frame turned 17 degrees per seed, a
 does). --pad R gives every finger of every scenario a pad of radius R (m). --summary prints, instead of a line per run, one line per scenario over its meshes (min / median /
 max) and then how many runs break each of the paper checks: a passive scene (pushed, bent or waved: it
 must not tear) holding more than 0.3 N or tearing, a tearing scene peaking above 5 N, a finger slipping,
-max_strain above 2%, and above 2% beyond 5 mm of the tear tips (max_strain_beyond_tips). The "run cm"
+max_strain above 2%, and above 2% beyond 5 mm of the tear tips and the outline's untorn inward corners
+(max_strain_beyond_tips). The "run cm"
 column is the longest path a tear grew within one frame (max_advance_per_frame): a notched sheet pulled
 in its own plane tears across at once, as paper does, but a tear made by hands moving out of the plane
 follows them (a few millimetres per frame), so a long run there means it ran away from them."""
