@@ -116,8 +116,8 @@ size_t implicit_solver_bytes(const ImplicitSolver& solver);
 // One substep. `held[i]` is prescribed to `held_target[i]` at the end of the substep, along a straight
 // line (a split step's halves meet at its midpoint). The solver is (re)built when the topology version,
 // the held set, the material or dt changed. Writes x, v and the membrane corner forces of the state the
-// step started from. Returns false and leaves x, v unchanged if
-// the factorisation failed or the result was not finite.
+// step started from. Returns false and leaves x, v unchanged if the factorisation failed or the result
+// was not finite.
 bool implicit_substep(const ImplicitParams& params, const std::vector<int32_t>& held,
                       const std::vector<Vec3>& held_target, ImplicitSolverPtr& solver, Sheet& sheet);
 
