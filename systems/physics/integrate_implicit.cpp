@@ -65,6 +65,7 @@ struct ImplicitSolver {
     std::vector<Vec3> half_target;
   };
   std::vector<SplitStart> split_starts;
+  std::vector<uint8_t> strain_jumps;               // scratch of strain_jumped: per triangle, whether it jumped
   std::vector<std::pair<int32_t, int32_t>> analysed_keys;  // the keys and positions ldlt was analysed for
   std::vector<Vec2> analysed_rest;
   bool analysed = false;
@@ -157,7 +158,7 @@ size_t implicit_solver_bytes(const ImplicitSolver& s) {
          capacity_bytes(s.pair_row) + capacity_bytes(s.pair_column) +
          capacity_bytes(s.pair_key) + capacity_bytes(s.resting) + capacity_bytes(s.resting_of_row) + capacity_bytes(s.resting_prescribed) + capacity_bytes(s.constrained) + capacity_bytes(s.obstacle_of_vertex) +
          capacity_bytes(s.unfiltered_values) + static_cast<size_t>(s.unfiltered_rhs.size()) * sizeof(double) +
-         split_start_bytes(s.split_starts);
+         split_start_bytes(s.split_starts) + capacity_bytes(s.strain_jumps);
 }
 
 namespace {
@@ -906,7 +907,7 @@ bool step_once(const ImplicitParams& params, const std::vector<int32_t>& held,
   held_sorted.erase(std::unique(held_sorted.begin(), held_sorted.end()), held_sorted.end());
   if (!solver) solver.reset(new ImplicitSolver);
   ImplicitSolver& s = *solver;
-  if (!s.analysed || s.version != sheet.topology_version || s.held != held_sorted || s.dt != params.dt ||
+  if (!s.analysed || s.version != sheet.topology_version || s.held != held_sorted ||
       !(s.material == key_of(sheet.material)) || s.alpha != params.mass_damping || s.beta != params.stiffness_damping) {
     const double analysis_before = s.stats.analysis_ms;
     {
@@ -914,6 +915,12 @@ bool step_once(const ImplicitParams& params, const std::vector<int32_t>& held,
       build_structure(sheet, params, held_sorted, s);
     }
     s.stats.structure_ms -= s.stats.analysis_ms - analysis_before;  // the analysis has its own total
+  } else if (s.dt != params.dt) {
+    // Only the step changed (a split substep's halves, and back): the pattern, its analysis and the
+    // assembly plan stay; the blocks that scale with h are formed again, as a rebuild would form them.
+    ScopedTimer timer(s.stats.structure_ms);
+    s.dt = params.dt;
+    add_constant_blocks(V, params, s);
   }
 
   const double h = params.dt;
@@ -998,10 +1005,11 @@ bool step_once(const ImplicitParams& params, const std::vector<int32_t>& held,
 
 // Whether some triangle ended the step stretched past the strain limit by more than `jump` beyond both the
 // limit and its strain at the step's start (`x_start`).
-bool strain_jumped(const ImplicitParams& params, const std::vector<Vec3>& x_start, const Sheet& sheet) {
+bool strain_jumped(const ImplicitParams& params, const std::vector<Vec3>& x_start, const Sheet& sheet,
+                   std::vector<uint8_t>& jumped) {
   const Triangles& T = sheet.tris;
   const double limit = sheet.material.strain_limit, jump = params.split_strain_jump;
-  std::vector<uint8_t> jumped(T.size(), 0);  // per triangle, written by its range; reduced serially
+  jumped.assign(T.size(), 0);  // per triangle, written by its range; reduced serially
   params.run(T.size(), params.grain, [&](int32_t b, int32_t e) {
     for (int32_t t = b; t < e; ++t) {
       const double after = max_principal_strain(sheet.verts.x, T.tri, T.rest_inv, t, t + 1);
@@ -1025,7 +1033,7 @@ bool split_substep(const ImplicitParams& params, const std::vector<int32_t>& hel
   start.x = V.x;
   start.v = V.v;
   if (!step_once(params, held, held_target, solver, sheet)) return false;
-  if (!strain_jumped(params, start.x, sheet)) return true;
+  if (!strain_jumped(params, start.x, sheet, solver->strain_jumps)) return true;
   // Redo as two halves; the substep's forces stay those of the state it started from (the fingers'
   // reactions during it), which the whole step just computed.
   solver->stats.splits += 1;
