@@ -101,7 +101,8 @@ struct ImplicitStats {
   int64_t friction_releases = 0;  // stickers set sliding because their support exceeded Coulomb's cap (solved again)
   int64_t splits = 0;          // steps redone as two half steps (ImplicitParams::split_strain_jump)
   // Wall time in ms, summed over the solver's life, of its parts: the block structure after a topology or
-  // held-set change (pairs, keys, constant values, destinations; the analysis excluded), the symbolic
+  // held-set change (pairs, keys, constant values, destinations; the analysis excluded) and the constant
+  // values again after a change of the step (a split), the symbolic
   // analyses, the assembly of matrix values and right-hand side, the numeric factorisations and the
   // triangular solves. Not part of the state: results do not depend on them.
   double structure_ms = 0, analysis_ms = 0, assembly_ms = 0, factorization_ms = 0, solve_ms = 0;
