@@ -108,7 +108,7 @@ Vec2 load_bearing(const PatternPaths& paths, const PatternPath& path, const Vec2
 void finger_load_points(const std::vector<Finger>& fingers, std::vector<LoadPoint>& out) {
   out.clear();
   for (const Finger& f : fingers)
-    if (f.vertex >= 0 && !f.released) out.push_back(LoadPoint{f.vertex, f.reaction});
+    if (f.vertex >= 0 && !f.released) out.push_back(LoadPoint{f.vertex, f.reaction, f.hand});
 }
 
 void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32_t>& piece, const Topology& topo,
@@ -183,20 +183,46 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
                                   params.paths.angle_tolerance);
   }
   Vec2 b = interior_bisector(topo, rest, p);
+  std::vector<int32_t>& sides = scratch.sides;
+  sides.resize(n);
   auto split = [&](const Vec2& line) {
     const double beta = ccw_angle(next_edge, line);
     const bool inside = beta > 0 && beta < interior;
-    bool changed = false;
     for (int32_t i = 0; i < n; ++i) {
-      LoadRay& r = out.rays[i];
+      const LoadRay& r = out.rays[i];
       int32_t side = 0;
       if (r.reachable) {
         // b outside the material (pulls from ahead): the plane's sides; t will not be valid anyway.
         const double c = inside ? r.wedge_angle - beta : cross(line, r.direction);
         side = c > 1e-12 ? 1 : (c < -1e-12 ? -1 : 0);
       }
-      changed |= side != r.side;
-      r.side = side;
+      sides[i] = side;
+    }
+    // A hand's fingers move as one body, so the tear does not run between them: a hand the line splits
+    // goes whole to the side that holds more of its weight (the left on a tie). Without it fig12's tear,
+    // started by the right hand, turned between that hand's two fingers towards the border it started
+    // from (docs/tearing.md, "Direction and Er at a tip").
+    if (params.hands_whole)
+      for (int32_t i = 0; i < n; ++i) {
+        const int32_t hand = loads[out.rays[i].load].hand;
+        if (hand < 0 || sides[i] == 0) continue;
+        bool first = true;
+        double left = 0, right = 0;
+        for (int32_t j = 0; j < n; ++j) {
+          if (loads[out.rays[j].load].hand != hand) continue;
+          if (j < i) first = false;
+          if (sides[j] > 0) left += out.rays[j].weight;
+          if (sides[j] < 0) right += out.rays[j].weight;
+        }
+        if (!first || left == 0 || right == 0) continue;
+        const int32_t whole = left >= right ? 1 : -1;
+        for (int32_t j = i; j < n; ++j)
+          if (loads[out.rays[j].load].hand == hand && sides[j] != 0) sides[j] = whole;
+      }
+    bool changed = false;
+    for (int32_t i = 0; i < n; ++i) {
+      changed |= sides[i] != out.rays[i].side;
+      out.rays[i].side = sides[i];
     }
     return changed;
   };

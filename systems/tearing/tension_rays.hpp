@@ -26,6 +26,7 @@ namespace pt {
 struct LoadPoint {
   int32_t vertex = -1;           // held vertex: A_j = rest[vertex]
   Vec3 reaction = Vec3::Zero();  // R_j, N (3D); w_j = ‖R_j‖
+  int32_t hand = -1;             // the hand whose fingers move with this one, −1 none (a hand of its own)
 };
 
 // The fingers holding a vertex now, in finger order.
@@ -44,6 +45,8 @@ struct TensionRaysParams {
   // opposite across the tip, but a crack pulled open in its plane does open (mode I), at several times
   // the force a tear out of the plane needs.
   double opening_floor = 0.1;
+  // Keep each hand's fingers (LoadPoint::hand) on one side of the split.
+  bool hands_whole = true;
   // The sheet's unit normal at p (3D), or zero (every pull read as in the plane): the part of the opening
   // force across the sheet tears the lips apart as a trouser's legs, whatever the bearings (Er below).
   Vec3 normal = Vec3::Zero();
@@ -102,6 +105,7 @@ struct TensionRaysScratch {
   PatternBoundary boundary;
   PatternPathScratch paths;
   std::vector<int32_t> targets;
+  std::vector<int32_t> sides;
 };
 
 // Sides: g_j is left of the split line b when it lies further counter-clockwise than b in p's interior

@@ -556,3 +556,42 @@ TEST(TensionRays, CostOnASmallSlitSheet) {
               "%d segment tests, path of %d points\n", scratch.boundary.edges.size(), scratch.boundary.reflex.size(),
               big_us, r.paths.visibility_tests, r.paths.paths[1].point_end - r.paths.paths[1].point_begin);
 }
+
+// A hand's fingers move as one body, so the split keeps them on one side (the side with more of the hand's
+// weight): a tip that has grown up from the border past one finger of the right hand (R1, below right)
+// with the hand's other finger (R2) nearly straight ahead, a little to the left, splits the hand without it
+// and runs between R1 and R2, as fig12-junction's tear did (docs/tearing.md, "Direction and Er at a tip").
+TEST(TensionRays, AHandsFingersStayOnOneSideOfTheSplit) {
+  const Sheet s = one_slit();
+  const int32_t p = vertex_at(s, kSlitTip);
+  struct Finger {
+    Vec2 at;
+    double force;
+    int32_t hand;
+  };
+  const std::vector<Finger> fingers{{{0.02, 0.03}, 0.8, 0}, {{0.02, 0.12}, 0.8, 0},  // left hand, pulling up
+                                    {{0.12, 0.03}, 1.0, 1}, {{0.09, 0.14}, 0.5, 1}}; // right hand, down
+  std::vector<LoadPoint> loads;
+  for (const Finger& f : fingers)
+    loads.push_back(LoadPoint{vertex_at(s, f.at), Vec3(0, 0, f.hand == 0 ? f.force : -f.force), f.hand});
+  TensionRaysScratch scratch;
+  auto sides = [&](bool whole) {
+    TensionRaysParams rp = params();
+    rp.previous_direction = Vec2(0, 1);
+    rp.hands_whole = whole;
+    TensionRays out;
+    compute_tension_rays(s.verts.rest, s.tris.piece, s.topo, p, loads, rp, scratch, out);
+    EXPECT_EQ(out.rays.size(), 4u);
+    std::vector<int32_t> side(4, 0);
+    for (const LoadRay& r : out.rays) side[r.load] = r.side;
+    return std::make_pair(out, side);
+  };
+  const auto [apart, apart_sides] = sides(false);
+  EXPECT_EQ(apart_sides, (std::vector<int32_t>{1, 1, -1, 1})) << "the plain split puts R2 with the left hand";
+  const auto [whole, whole_sides] = sides(true);
+  ASSERT_TRUE(whole.valid);
+  EXPECT_EQ(whole_sides, (std::vector<int32_t>{1, 1, -1, -1}));
+  // Between the hands, not between R1 and R2: t runs up and away from the right hand's side.
+  EXPECT_GT(whole.direction.y(), 0);
+  EXPECT_LT(whole.direction.x(), apart.direction.x());
+}
