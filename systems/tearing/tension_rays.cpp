@@ -203,18 +203,18 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
     // started by the right hand, turned between that hand's two fingers towards the border it started
     // from (docs/tearing.md, "Direction and Er at a tip").
     if (params.hands_whole)
-      for (int32_t i = 0; i < n; ++i) {
+      for (int32_t i = 0; i < n; ++i) {  // each hand once, at its first ray
         const int32_t hand = loads[out.rays[i].load].hand;
-        if (hand < 0 || sides[i] == 0) continue;
-        bool first = true;
+        bool first = hand >= 0;
+        for (int32_t j = 0; j < i && first; ++j) first = loads[out.rays[j].load].hand != hand;
+        if (!first) continue;
         double left = 0, right = 0;
-        for (int32_t j = 0; j < n; ++j) {
+        for (int32_t j = i; j < n; ++j) {
           if (loads[out.rays[j].load].hand != hand) continue;
-          if (j < i) first = false;
           if (sides[j] > 0) left += out.rays[j].weight;
           if (sides[j] < 0) right += out.rays[j].weight;
         }
-        if (!first || left == 0 || right == 0) continue;
+        if (left == 0 || right == 0) continue;
         const int32_t whole = left >= right ? 1 : -1;
         for (int32_t j = i; j < n; ++j)
           if (loads[out.rays[j].load].hand == hand && sides[j] != 0) sides[j] = whole;
