@@ -202,23 +202,27 @@ void compute_tension_rays(const std::vector<Vec2>& rest, const std::vector<int32
     // goes whole to the side that holds more of its weight (the left on a tie). Without it fig12's tear,
     // started by the right hand, turned between that hand's two fingers towards the border it started
     // from (docs/tearing.md, "Direction and Er at a tip").
-    if (params.hands_whole)
-      for (int32_t i = 0; i < n; ++i) {  // each hand once, at its first ray
+    if (params.hands_whole) {
+      std::vector<double>& left = scratch.hand_left;
+      std::vector<double>& right = scratch.hand_right;
+      left.clear();
+      right.clear();
+      for (int32_t i = 0; i < n; ++i) {
         const int32_t hand = loads[out.rays[i].load].hand;
-        bool first = hand >= 0;
-        for (int32_t j = 0; j < i && first; ++j) first = loads[out.rays[j].load].hand != hand;
-        if (!first) continue;
-        double left = 0, right = 0;
-        for (int32_t j = i; j < n; ++j) {
-          if (loads[out.rays[j].load].hand != hand) continue;
-          if (sides[j] > 0) left += out.rays[j].weight;
-          if (sides[j] < 0) right += out.rays[j].weight;
+        if (hand < 0) continue;
+        if (static_cast<size_t>(hand) >= left.size()) {
+          left.resize(hand + 1, 0.0);
+          right.resize(hand + 1, 0.0);
         }
-        if (left == 0 || right == 0) continue;
-        const int32_t whole = left >= right ? 1 : -1;
-        for (int32_t j = i; j < n; ++j)
-          if (loads[out.rays[j].load].hand == hand && sides[j] != 0) sides[j] = whole;
+        if (sides[i] > 0) left[hand] += out.rays[i].weight;
+        if (sides[i] < 0) right[hand] += out.rays[i].weight;
       }
+      for (int32_t i = 0; i < n; ++i) {
+        const int32_t hand = loads[out.rays[i].load].hand;
+        if (hand < 0 || sides[i] == 0 || left[hand] == 0 || right[hand] == 0) continue;
+        sides[i] = left[hand] >= right[hand] ? 1 : -1;
+      }
+    }
     bool changed = false;
     for (int32_t i = 0; i < n; ++i) {
       changed |= sides[i] != out.rays[i].side;

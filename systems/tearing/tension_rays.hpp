@@ -105,7 +105,8 @@ struct TensionRaysScratch {
   PatternBoundary boundary;
   PatternPathScratch paths;
   std::vector<int32_t> targets;
-  std::vector<int32_t> sides;
+  std::vector<int32_t> sides;                 // per ray, during the split
+  std::vector<double> hand_left, hand_right;  // per hand, its weight on each side of the split
 };
 
 // Sides: g_j is left of the split line b when it lies further counter-clockwise than b in p's interior

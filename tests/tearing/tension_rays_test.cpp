@@ -564,15 +564,15 @@ TEST(TensionRays, CostOnASmallSlitSheet) {
 TEST(TensionRays, AHandsFingersStayOnOneSideOfTheSplit) {
   const Sheet s = one_slit();
   const int32_t p = vertex_at(s, kSlitTip);
-  struct Finger {
+  struct HeldPoint {
     Vec2 at;
     double force;
     int32_t hand;
   };
-  const std::vector<Finger> fingers{{{0.02, 0.03}, 0.8, 0}, {{0.02, 0.12}, 0.8, 0},  // left hand, pulling up
+  const std::vector<HeldPoint> fingers{{{0.02, 0.03}, 0.8, 0}, {{0.02, 0.12}, 0.8, 0},  // left hand, pulling up
                                     {{0.12, 0.03}, 1.0, 1}, {{0.09, 0.14}, 0.5, 1}}; // right hand, down
   std::vector<LoadPoint> loads;
-  for (const Finger& f : fingers)
+  for (const HeldPoint& f : fingers)
     loads.push_back(LoadPoint{vertex_at(s, f.at), Vec3(0, 0, f.hand == 0 ? f.force : -f.force), f.hand});
   TensionRaysScratch scratch;
   auto sides = [&](bool whole) {
